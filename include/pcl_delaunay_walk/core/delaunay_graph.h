@@ -1,0 +1,60 @@
+/// \file delaunay_graph.h
+/// \brief The walk graph: Delaunay neighbourhoods of the reference cloud in CSR form (DESIGN.md §2).
+#pragma once
+
+#include <array>
+#include <memory>
+#include <vector>
+
+#include "pcl_delaunay_walk/core/types.h"
+
+namespace dw {
+
+/// The Delaunay graph of a reference cloud, laid out for the walk.
+///
+/// Invariants (checked by validate()):
+///  - points[v] is vertex v relative to origin; vertices are the distinct finite input points in a
+///    space-filling-curve order, so graph neighbours are mostly near in memory;
+///  - the neighbours of v are edges[offsets[v] .. offsets[v+1]), each edge stored in both directions;
+///  - input_to_vertex[i] is the vertex of input point i, or kInvalidIndex for a skipped (NaN/Inf) one;
+///  - originals[originals_offsets[v] .. originals_offsets[v+1]) are the input indices that collapsed
+///    onto vertex v (duplicates), ascending; the first is v's representative.
+/// An edge set that contains every Delaunay edge makes the walk exact; extra edges cost only speed.
+struct DelaunayGraph {
+  using Ptr = std::shared_ptr<DelaunayGraph>;
+  using ConstPtr = std::shared_ptr<const DelaunayGraph>;
+
+  std::array<double, 3> origin{{0.0, 0.0, 0.0}};
+  /// Affine dimension of the vertex set: 0 (one point), 1 (collinear), 2 (coplanar) or 3.
+  int dimension = 0;
+  std::vector<Vec3f> points;
+  std::vector<index_t> offsets{0};
+  std::vector<EdgeRecord> edges;
+  std::vector<index_t> input_to_vertex;
+  std::vector<index_t> originals_offsets{0};
+  std::vector<index_t> originals;
+
+  std::size_t numVertices() const { return points.size(); }
+  std::size_t numDirectedEdges() const { return edges.size(); }
+  std::size_t numInputPoints() const { return input_to_vertex.size(); }
+  std::size_t degree(index_t v) const { return offsets[v + 1] - offsets[v]; }
+  index_t representative(index_t v) const { return originals[originals_offsets[v]]; }
+
+  /// A caller's point in the graph's local frame (subtract in double, then round once).
+  Vec3f toLocal(double x, double y, double z) const {
+    return {static_cast<float>(x - origin[0]), static_cast<float>(y - origin[1]),
+            static_cast<float>(z - origin[2])};
+  }
+
+  /// Throws dw::Error naming the first broken invariant. Cost O(V + E).
+  void validate() const;
+
+  /// Bytes held by the arrays (what a saved file holds, roughly).
+  std::size_t memoryBytes() const;
+};
+
+/// Builds the CSR records from an undirected edge list over `points` (pairs i != j, any order,
+/// duplicates allowed). Used by every builder so that the layout is defined in one place.
+void assembleEdges(DelaunayGraph& graph, std::vector<std::pair<index_t, index_t>> undirected_edges);
+
+}  // namespace dw

@@ -1,0 +1,97 @@
+#include "pcl_delaunay_walk/core/delaunay_graph.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace dw {
+
+namespace {
+[[noreturn]] void broken(const std::string& what) { throw Error("pcl_delaunay_walk: invalid graph: " + what); }
+}  // namespace
+
+void DelaunayGraph::validate() const {
+  const std::size_t n = points.size();
+  if (dimension < 0 || dimension > 3) broken("dimension out of range");
+  for (double o : origin)
+    if (!std::isfinite(o)) broken("non-finite origin");
+  if (offsets.size() != n + 1 || offsets.front() != 0) broken("offsets size");
+  if (offsets.back() != edges.size()) broken("offsets do not end at the edge count");
+  for (std::size_t v = 0; v < n; ++v) {
+    if (offsets[v] > offsets[v + 1]) broken("offsets not monotonic at vertex " + std::to_string(v));
+    if (!std::isfinite(points[v].x) || !std::isfinite(points[v].y) || !std::isfinite(points[v].z))
+      broken("non-finite vertex " + std::to_string(v));
+  }
+  for (const EdgeRecord& e : edges) {
+    if (e.j >= n) broken("edge neighbour out of range");
+    if (!(e.m >= 0.f) || !std::isfinite(e.ex) || !std::isfinite(e.ey) || !std::isfinite(e.ez))
+      broken("non-finite edge record");
+  }
+  if (originals_offsets.size() != n + 1 || originals_offsets.front() != 0 ||
+      originals_offsets.back() != originals.size())
+    broken("originals offsets");
+  const std::size_t num_input = input_to_vertex.size();
+  for (std::size_t v = 0; v < n; ++v) {
+    if (originals_offsets[v] >= originals_offsets[v + 1]) broken("vertex without an input point");
+    for (index_t k = originals_offsets[v]; k < originals_offsets[v + 1]; ++k) {
+      const index_t i = originals[k];
+      if (i >= num_input || input_to_vertex[i] != v) broken("originals do not match input_to_vertex");
+      if (k > originals_offsets[v] && originals[k - 1] >= i) broken("originals not ascending");
+    }
+  }
+  std::size_t mapped = 0;
+  for (index_t v : input_to_vertex) {
+    if (v == kInvalidIndex) continue;
+    if (v >= n) broken("input_to_vertex out of range");
+    ++mapped;
+  }
+  if (mapped != originals.size()) broken("input_to_vertex count differs from originals");
+}
+
+std::size_t DelaunayGraph::memoryBytes() const {
+  return points.size() * sizeof(Vec3f) + offsets.size() * sizeof(index_t) + edges.size() * sizeof(EdgeRecord) +
+         input_to_vertex.size() * sizeof(index_t) + originals_offsets.size() * sizeof(index_t) +
+         originals.size() * sizeof(index_t);
+}
+
+void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> undirected) {
+  const std::size_t n = g.points.size();
+  // Normalise, then sort/unique: builders may report an edge once per incident simplex.
+  for (auto& e : undirected) {
+    if (e.first > e.second) std::swap(e.first, e.second);
+    if (e.second >= n) throw Error("pcl_delaunay_walk: builder returned an edge to a missing vertex");
+  }
+  std::sort(undirected.begin(), undirected.end());
+  undirected.erase(std::unique(undirected.begin(), undirected.end()), undirected.end());
+  undirected.erase(std::remove_if(undirected.begin(), undirected.end(),
+                                  [](const std::pair<index_t, index_t>& e) { return e.first == e.second; }),
+                   undirected.end());
+  if (2 * undirected.size() > static_cast<std::size_t>(kInvalidIndex))
+    throw Error("pcl_delaunay_walk: graph has more than 2^32 directed edges");
+
+  std::vector<index_t> degree(n + 1, 0);
+  for (const auto& e : undirected) {
+    ++degree[e.first];
+    ++degree[e.second];
+  }
+  g.offsets.assign(n + 1, 0);
+  for (std::size_t v = 0; v < n; ++v) g.offsets[v + 1] = g.offsets[v] + degree[v];
+  g.edges.resize(g.offsets[n]);
+  std::vector<index_t> fill(g.offsets.begin(), g.offsets.end() - 1);
+  auto put = [&](index_t i, index_t j) {
+    const Vec3f d = g.points[j] - g.points[i];
+    const double len = std::sqrt(double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z);
+    const double inv = len > 0.0 ? 1.0 / len : 0.0;
+    g.edges[fill[i]++] = {float(d.x * inv), float(d.y * inv), float(d.z * inv), float(0.5 * len), j};
+  };
+  for (const auto& e : undirected) {
+    put(e.first, e.second);
+    put(e.second, e.first);
+  }
+  // Neighbours in ascending order: deterministic files and slightly better locality.
+  for (std::size_t v = 0; v < n; ++v)
+    std::sort(g.edges.begin() + g.offsets[v], g.edges.begin() + g.offsets[v + 1],
+              [](const EdgeRecord& a, const EdgeRecord& b) { return a.j < b.j; });
+}
+
+}  // namespace dw

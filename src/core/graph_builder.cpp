@@ -1,0 +1,189 @@
+#include "pcl_delaunay_walk/core/graph_builder.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <numeric>
+
+#include "pcl_delaunay_walk/core/space_filling_curve.h"
+
+namespace dw {
+
+namespace {
+
+void report(const BuildOptions& o, const char* stage, double f) {
+  if (o.progress) o.progress(stage, f);
+}
+
+/// Vertex sets this small get the complete graph: trivially exact, and it spares the Delaunay
+/// builders their degenerate small cases (< 4 points, all coplanar, ...).
+constexpr std::size_t kCompleteGraphMax = 8;
+
+/// Affine dimension of the vertex set and, for dim 2, an orthonormal in-plane basis; for dim 1, the
+/// line direction in basis[0..2]. Thresholds are relative to the extent; below 1e-9 the off-plane
+/// part of a distance is under float resolution for any query, so the lower-dimensional graph is
+/// exact (distance^2 = in-plane^2 + off-plane^2, DESIGN.md §2).
+int affineDimension(const std::vector<Vec3f>& p, double basis[6], double rel_tol = 1e-9) {
+  if (p.empty()) return 0;
+  auto d3 = [](const Vec3f& a) { return std::array<double, 3>{a.x, a.y, a.z}; };
+  auto sub = [](std::array<double, 3> a, std::array<double, 3> b) {
+    return std::array<double, 3>{a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+  };
+  auto dotd = [](std::array<double, 3> a, std::array<double, 3> b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+  auto cross = [](std::array<double, 3> a, std::array<double, 3> b) {
+    return std::array<double, 3>{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+  };
+  const auto p0 = d3(p[0]);
+  std::size_t i1 = 0;
+  double best = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto d = sub(d3(p[i]), p0);
+    const double l = dotd(d, d);
+    if (l > best) best = l, i1 = i;
+  }
+  if (best == 0) return 0;
+  const double extent = std::sqrt(best);
+  const double tol = rel_tol * extent;
+  auto dir = sub(d3(p[i1]), p0);
+  for (double& c : dir) c /= extent;
+  std::size_t i2 = 0;
+  best = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto d = sub(d3(p[i]), p0);
+    const auto c = cross(dir, d);
+    const double l = dotd(c, c);
+    if (l > best) best = l, i2 = i;
+  }
+  basis[0] = dir[0], basis[1] = dir[1], basis[2] = dir[2];
+  if (std::sqrt(best) <= tol) return 1;
+  auto w = sub(d3(p[i2]), p0);
+  const double t = dotd(w, dir);
+  for (int a = 0; a < 3; ++a) w[a] -= t * dir[a];
+  const double wl = std::sqrt(dotd(w, w));
+  for (double& c : w) c /= wl;
+  basis[3] = w[0], basis[4] = w[1], basis[5] = w[2];
+  const auto nrm = cross(dir, w);
+  double off = 0;
+  for (const Vec3f& q : p) off = std::max(off, std::fabs(dotd(sub(d3(q), p0), nrm)));
+  return off <= tol ? 2 : 3;
+}
+
+EdgeList completeGraph(std::size_t n) {
+  EdgeList e;
+  for (index_t i = 0; i < n; ++i)
+    for (index_t j = i + 1; j < n; ++j) e.emplace_back(i, j);
+  return e;
+}
+
+EdgeList chainAlongLine(const std::vector<Vec3f>& p, const double dir[3]) {
+  // On a line the Voronoi neighbours are the predecessor and successor in order along it.
+  std::vector<index_t> order(p.size());
+  std::iota(order.begin(), order.end(), index_t(0));
+  auto t = [&](index_t i) { return double(p[i].x) * dir[0] + double(p[i].y) * dir[1] + double(p[i].z) * dir[2]; };
+  std::sort(order.begin(), order.end(), [&](index_t a, index_t b) { return t(a) < t(b); });
+  EdgeList e;
+  for (std::size_t k = 1; k < order.size(); ++k) e.emplace_back(order[k - 1], order[k]);
+  return e;
+}
+
+}  // namespace
+
+DelaunayGraph buildDelaunayGraph(const PointView& view, const BuildOptions& options) {
+  if (view.size > 0 && view.data == nullptr) throw Error("pcl_delaunay_walk: point view without data");
+  if (view.size >= static_cast<std::size_t>(kInvalidIndex))
+    throw Error("pcl_delaunay_walk: at most 2^32-2 input points are supported");
+  DelaunayGraph g;
+  const std::size_t n = view.size;
+  g.input_to_vertex.assign(n, kInvalidIndex);
+  report(options, "prepare", 0.0);
+
+  // Origin: centre of the finite points' bounding box, in double. Centring is what keeps Qhull correct
+  // on georeferenced input, and float storage precise (DESIGN.md §2).
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  std::vector<index_t> finite;
+  finite.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto p = view[i];
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
+    finite.push_back(static_cast<index_t>(i));
+    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
+  }
+  if (finite.empty()) return g;
+  for (int a = 0; a < 3; ++a) g.origin[a] = 0.5 * (lo[a] + hi[a]);
+
+  // Local float coordinates and Morton keys; one sort by (key, x, y, z, input index) both orders the
+  // vertices along the curve and makes exact duplicates adjacent.
+  struct Item {
+    std::uint64_t key;
+    Vec3f p;
+    index_t input;
+  };
+  std::vector<Item> items(finite.size());
+  double scale = 0;
+  for (int a = 0; a < 3; ++a) scale = std::max(scale, hi[a] - lo[a]);
+  const double cell = scale > 0 ? double((1u << 21) - 1) / scale : 0.0;
+  for (std::size_t k = 0; k < finite.size(); ++k) {
+    const auto p = view[finite[k]];
+    Item& it = items[k];
+    it.p = g.toLocal(p[0], p[1], p[2]);
+    it.input = finite[k];
+    auto q = [&](int a) { return static_cast<std::uint32_t>(std::min(double((1u << 21) - 1), (p[a] - lo[a]) * cell)); };
+    it.key = mortonKey(q(0), q(1), q(2));
+  }
+  std::sort(items.begin(), items.end(), [](const Item& a, const Item& b) {
+    if (a.key != b.key) return a.key < b.key;
+    if (a.p.x != b.p.x) return a.p.x < b.p.x;
+    if (a.p.y != b.p.y) return a.p.y < b.p.y;
+    if (a.p.z != b.p.z) return a.p.z < b.p.z;
+    return a.input < b.input;
+  });
+  g.points.reserve(items.size());
+  g.originals.reserve(items.size());
+  for (std::size_t k = 0; k < items.size(); ++k) {
+    const bool dup = k > 0 && items[k].p.x == items[k - 1].p.x && items[k].p.y == items[k - 1].p.y &&
+                     items[k].p.z == items[k - 1].p.z;
+    if (!dup) {
+      if (!g.points.empty()) g.originals_offsets.push_back(static_cast<index_t>(g.originals.size()));
+      g.points.push_back(items[k].p);
+    }
+    g.originals.push_back(items[k].input);
+    g.input_to_vertex[items[k].input] = static_cast<index_t>(g.points.size() - 1);
+  }
+  g.originals_offsets.push_back(static_cast<index_t>(g.originals.size()));
+  items.clear();
+  items.shrink_to_fit();
+  report(options, "prepare", 1.0);
+
+  double basis[6] = {0, 0, 0, 0, 0, 0};
+  g.dimension = affineDimension(g.points, basis);
+  const std::size_t nv = g.points.size();
+  EdgeList edges;
+  if (nv <= kCompleteGraphMax) {
+    edges = completeGraph(nv);
+  } else if (g.dimension == 1) {
+    edges = chainAlongLine(g.points, basis);
+  } else if (g.dimension == 2) {
+    report(options, "delaunay-2d", 0.0);
+    edges = qhullDelaunayEdges(g.points, 2, basis);
+  } else {
+    BuilderType b = options.builder;
+    if (b == BuilderType::Auto) b = haveIncrementalBuilder() ? BuilderType::Incremental : BuilderType::Qhull;
+    report(options, "delaunay-3d", 0.0);
+    try {
+      edges = b == BuilderType::Incremental ? incrementalDelaunayEdges(g.points, options)
+                                            : qhullDelaunayEdges(g.points, 3, nullptr);
+    } catch (const Error&) {
+      // Nearly flat sets (a tilted plane rounded to float) can defeat a 3D builder; within 1e-6 of the
+      // extent the planar graph errs by less than float resolution on the query distances.
+      if (affineDimension(g.points, basis, 1e-6) != 2) throw;
+      g.dimension = 2;
+      edges = qhullDelaunayEdges(g.points, 2, basis);
+    }
+  }
+  report(options, "assemble", 0.0);
+  assembleEdges(g, std::move(edges));
+  report(options, "assemble", 1.0);
+  return g;
+}
+
+}  // namespace dw
