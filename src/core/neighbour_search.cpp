@@ -42,24 +42,24 @@ namespace {
 /// is a Delaunay neighbour of one of the first i-1, so popping a min-heap of the frontier yields the
 /// vertices in exact distance order. `take` receives (vertex, dist2) and returns false to stop.
 template <typename Take>
-void expand(const DelaunayGraph& g, const Vec3f& q, const WalkResult& nn, float stop_above, Take take) {
+void expand(const DelaunayGraph& g, const Vec3f& q, const WalkResult& nn, double stop_above, Take take) {
   if (nn.vertex == kInvalidIndex || nn.vertex >= g.points.size()) return;
   SearchScratch& s = SearchScratch::threadLocal();
   s.begin(g.points.size());
   auto& heap = s.heap;
-  const auto cmp = std::greater<std::pair<float, index_t>>();
+  const auto cmp = std::greater<std::pair<double, index_t>>();
   s.visit(nn.vertex);
-  heap.emplace_back(nn.dist2, nn.vertex);
+  heap.emplace_back(squaredDistanceD(q, g.points[nn.vertex]), nn.vertex);
   while (!heap.empty()) {
     std::pop_heap(heap.begin(), heap.end(), cmp);
     const auto [d2, v] = heap.back();
     heap.pop_back();
     if (d2 > stop_above) return;
-    if (!take(v, d2)) return;
+    if (!take(v, static_cast<float>(d2))) return;
     for (index_t k = g.offsets[v]; k < g.offsets[v + 1]; ++k) {
       const index_t j = g.edges[k].j;
       if (!s.visit(j)) continue;
-      heap.emplace_back(squaredDistance(q, g.points[j]), j);
+      heap.emplace_back(squaredDistanceD(q, g.points[j]), j);
       std::push_heap(heap.begin(), heap.end(), cmp);
     }
   }

@@ -220,3 +220,29 @@ TEST(Exactness, QhullBuilderExplicit) {
   if (!haveQhullBuilder()) GTEST_SKIP() << "this build has no Qhull";
   checkExact(uniformCube(1000, 12), "qhull explicit", 30, BuilderType::Qhull);
 }
+
+TEST(Exactness, FarQueriesAreDecidedInDouble) {
+  // Queries far from the data: float squared distances of different vertices round to the same value,
+  // so a float-only walk stops early (seen on a collinear set with queries ~17 units away). The
+  // answer must be the nearest vertex in exact (double) distance from the float coordinates.
+  std::mt19937 rng(77);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<double> line, cloud;
+  for (int i = 0; i < 3000; ++i) line.insert(line.end(), {u(rng) * 0.05, 0.0, 0.0});
+  for (int i = 0; i < 3000; ++i) cloud.insert(cloud.end(), {u(rng) * 0.05, u(rng) * 0.05, u(rng) * 0.05});
+  for (const auto* xyz : {&line, &cloud}) {
+    auto g = std::make_shared<DelaunayGraph>(buildDelaunayGraph(PointView::fromDouble(xyz->data(), 3000)));
+    NeighbourSearch s(g);
+    int wrong = 0;
+    for (int k = 0; k < 3000; ++k) {
+      const Vec3f q{float(u(rng) * 0.05), float(17.0 + u(rng)), float(u(rng) - 0.5)};
+      double best = 1e300;
+      for (const Vec3f& p : g->points) best = std::min(best, squaredDistanceD(q, p));
+      for (StartStrategy st : {StartStrategy::Zero, StartStrategy::KdAnn}) {
+        const WalkResult r = s.nearest(q, st);
+        wrong += squaredDistanceD(q, g->points[r.vertex]) != best;
+      }
+    }
+    EXPECT_EQ(wrong, 0) << (xyz == &line ? "collinear" : "cube");
+  }
+}

@@ -2,6 +2,8 @@
 /// \brief The Delaunay walk (seed Algorithm 1): exact nearest neighbour by greedy descent on the graph.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 
 #include "pcl_delaunay_walk/core/delaunay_graph.h"
@@ -14,41 +16,63 @@ struct WalkResult {
   std::uint32_t steps = 0;         ///< moves made (0: the start was already the nearest)
 };
 
+/// Squared distance in double from float coordinates: exact to 1 ulp of double, so it separates any two
+/// vertices whose float positions differ in distance from q (float squared distances can tie there).
+inline double squaredDistanceD(const Vec3f& a, const Vec3f& b) {
+  const double dx = double(a.x) - b.x, dy = double(a.y) - b.y, dz = double(a.z) - b.z;
+  return dx * dx + dy * dy + dz * dz;
+}
+
 /// Walks from `start` towards query `q` (in the graph's local frame).
 ///
 /// At vertex i with u = q - x_i, c = u.e_ij for each edge; if some c > m_ij, move to the j of largest
-/// c, else x_i is the exact nearest neighbour (DESIGN.md §3). A move is taken only if it strictly
-/// lowers the float distance, so the walk always terminates, even where rounding makes c and m tie.
+/// c, else x_i is the exact nearest neighbour (DESIGN.md §3). The float test is exact except within its
+/// rounding error (< 1e-6 (|u| + m), from u, the rounded unit vector and m): edges that close to their
+/// threshold are re-decided by comparing distances in double, which also catches queries far from the
+/// data, where float squared distances of different vertices round to the same value. A move is taken
+/// only if it strictly lowers the double distance, so the walk always terminates.
 inline WalkResult walk(const DelaunayGraph& g, const Vec3f& q, index_t start) {
   WalkResult r;
   if (g.points.empty()) return r;
   index_t i = start < g.points.size() ? start : 0;
   Vec3f u = q - g.points[i];
-  float d2 = dot(u, u);
+  double d2 = squaredDistanceD(q, g.points[i]);
   for (;;) {
-    const EdgeRecord* e = g.edges.data() + g.offsets[i];
-    const EdgeRecord* end = g.edges.data() + g.offsets[i + 1];
+    const EdgeRecord* const first = g.edges.data() + g.offsets[i];
+    const EdgeRecord* const end = g.edges.data() + g.offsets[i + 1];
     float best_gain = 0.f;
+    float max_margin = -INFINITY;  // largest c - m: how near the closest edge came to a move
     index_t best = kInvalidIndex;
-    for (; e != end; ++e) {
+    for (const EdgeRecord* e = first; e != end; ++e) {
       // c - m > 0  <=>  q is closer to x_j; the largest c moves furthest along the descent.
       const float c = u.x * e->ex + u.y * e->ey + u.z * e->ez;
-      if (c > e->m && c > best_gain) {
-        best_gain = c;
-        best = e->j;
+      const float margin = c - e->m;
+      if (margin > 0.f && c > best_gain) best_gain = c, best = e->j;
+      max_margin = std::max(max_margin, margin);
+    }
+    // An edge within rounding of its threshold (c ~ m <= |u|, error < 1e-6 (|u| + m)) is undecided.
+    bool uncertain = max_margin > -2e-6f * std::sqrt(float(d2)) - 1e-30f;
+    index_t next = kInvalidIndex;
+    double next_d2 = d2;
+    if (best != kInvalidIndex) {
+      const double db = squaredDistanceD(q, g.points[best]);
+      if (db < d2) next = best, next_d2 = db;
+      else uncertain = true;  // float and double disagree: a rounding tie, settle it in double
+    }
+    if (next == kInvalidIndex && uncertain) {
+      for (const EdgeRecord* e = first; e != end; ++e) {
+        const double dj = squaredDistanceD(q, g.points[e->j]);
+        if (dj < next_d2) next = e->j, next_d2 = dj;
       }
     }
-    if (best == kInvalidIndex) break;
-    const Vec3f un = q - g.points[best];
-    const float d2n = dot(un, un);
-    if (!(d2n < d2)) break;  // a rounding tie: i is as near as best
-    i = best;
-    u = un;
-    d2 = d2n;
+    if (next == kInvalidIndex) break;
+    i = next;
+    u = q - g.points[i];
+    d2 = next_d2;
     ++r.steps;
   }
   r.vertex = i;
-  r.dist2 = d2;
+  r.dist2 = static_cast<float>(d2);
   return r;
 }
 
