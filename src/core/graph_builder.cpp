@@ -19,6 +19,9 @@ void report(const BuildOptions& o, const char* stage, double f) {
 /// builders their degenerate small cases (< 4 points, all coplanar, ...).
 constexpr std::size_t kCompleteGraphMax = 8;
 
+/// Largest supported extent along any axis: its square must stay well inside float range.
+constexpr double kMaxExtent = 1e18;
+
 /// Affine dimension of the vertex set and, for dim 2, an orthonormal in-plane basis; for dim 1, the
 /// line direction in basis[0..2]. Thresholds are relative to the extent; below 1e-9 the off-plane
 /// part of a distance is under float resolution for any query, so the lower-dimensional graph is
@@ -76,13 +79,29 @@ EdgeList completeGraph(std::size_t n) {
 }
 
 EdgeList chainAlongLine(const std::vector<Vec3f>& p, const double dir[3]) {
-  // On a line the Voronoi neighbours are the predecessor and successor in order along it.
+  // On a line the Voronoi neighbours are the predecessor and successor in order along it. Distinct
+  // points may share a position t along the line (they differ off the line by less than the collinearity
+  // tolerance): such a group is one "place" on the line, so each member links to every member of its
+  // own group and of the neighbouring groups, and the walk can step between any of them.
   std::vector<index_t> order(p.size());
   std::iota(order.begin(), order.end(), index_t(0));
-  auto t = [&](index_t i) { return double(p[i].x) * dir[0] + double(p[i].y) * dir[1] + double(p[i].z) * dir[2]; };
-  std::sort(order.begin(), order.end(), [&](index_t a, index_t b) { return t(a) < t(b); });
+  std::vector<double> t(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i)
+    t[i] = double(p[i].x) * dir[0] + double(p[i].y) * dir[1] + double(p[i].z) * dir[2];
+  std::sort(order.begin(), order.end(), [&](index_t a, index_t b) { return t[a] < t[b]; });
   EdgeList e;
-  for (std::size_t k = 1; k < order.size(); ++k) e.emplace_back(order[k - 1], order[k]);
+  std::size_t prev_begin = 0, begin = 0;
+  while (begin < order.size()) {
+    std::size_t end = begin + 1;
+    while (end < order.size() && t[order[end]] == t[order[begin]]) ++end;
+    for (std::size_t a = begin; a < end; ++a) {
+      for (std::size_t b = a + 1; b < end; ++b) e.emplace_back(order[a], order[b]);
+      if (begin > 0)
+        for (std::size_t b = prev_begin; b < begin; ++b) e.emplace_back(order[a], order[b]);
+    }
+    prev_begin = begin;
+    begin = end;
+  }
   return e;
 }
 
@@ -109,7 +128,13 @@ DelaunayGraph buildDelaunayGraph(const PointView& view, const BuildOptions& opti
     for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
   }
   if (finite.empty()) return g;
-  for (int a = 0; a < 3; ++a) g.origin[a] = 0.5 * (lo[a] + hi[a]);
+  for (int a = 0; a < 3; ++a) {
+    g.origin[a] = 0.5 * (lo[a] + hi[a]);
+    // Squared distances are float: beyond ~1e18 they overflow. Real clouds span far less.
+    if (!(hi[a] - lo[a] <= kMaxExtent))
+      throw Error("pcl_delaunay_walk: the finite points span " + std::to_string(hi[a] - lo[a]) +
+                  " along an axis; at most 1e18 is supported (float squared distances)");
+  }
 
   // Local float coordinates and Morton keys; one sort by (key, x, y, z, input index) both orders the
   // vertices along the curve and makes exact duplicates adjacent.
@@ -127,7 +152,12 @@ DelaunayGraph buildDelaunayGraph(const PointView& view, const BuildOptions& opti
     Item& it = items[k];
     it.p = g.toLocal(p[0], p[1], p[2]);
     it.input = finite[k];
-    auto q = [&](int a) { return static_cast<std::uint32_t>(std::min(double((1u << 21) - 1), (p[a] - lo[a]) * cell)); };
+    // The key comes from the float position, so inputs that round to one float position (and so
+    // collapse below) get equal keys and end up adjacent in the sort.
+    const double fp[3] = {double(it.p.x) + g.origin[0], double(it.p.y) + g.origin[1], double(it.p.z) + g.origin[2]};
+    auto q = [&](int a) {
+      return static_cast<std::uint32_t>(std::clamp((fp[a] - lo[a]) * cell, 0.0, double((1u << 21) - 1)));
+    };
     it.key = mortonKey(q(0), q(1), q(2));
   }
   std::sort(items.begin(), items.end(), [](const Item& a, const Item& b) {

@@ -1,6 +1,7 @@
 #include "pcl_delaunay_walk/core/graph_io.h"
 
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 
@@ -112,6 +113,7 @@ DelaunayGraph deserializeGraph(const std::uint8_t* data, std::size_t size) {
     fail("version " + std::to_string(h.version) + " is not supported (this build reads version " +
          std::to_string(kGraphFileVersion) + ")");
   if (h.header_size != sizeof(Header) || h.dimension > 3) fail("malformed header");
+  if (h.flags != 0) fail("unknown feature flags " + std::to_string(h.flags) + " for version 1");
   std::uint64_t expect = 0;
   expect = mulAdd(h.num_vertices, sizeof(Vec3f), expect);
   expect = mulAdd(h.num_vertices + 1, 2 * sizeof(index_t), expect);
@@ -144,6 +146,9 @@ DelaunayGraph deserializeGraph(const std::uint8_t* data, std::size_t size) {
 }
 
 DelaunayGraph loadGraph(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw GraphFileError("pcl_delaunay_walk: cannot open graph file '" + path + "': not a regular file");
   std::ifstream f(path, std::ios::binary | std::ios::ate);
   if (!f) throw GraphFileError("pcl_delaunay_walk: cannot open graph file '" + path + "'");
   const std::streamoff size = f.tellg();

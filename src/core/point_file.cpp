@@ -1,5 +1,7 @@
 #include "pcl_delaunay_walk/core/point_file.h"
 
+#include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -90,6 +92,15 @@ std::vector<double> readPointsXyz(const std::string& path) {
   }
   if (!seen_format || xi < 0 || yi < 0 || zi < 0) fail(path, "header lacks format or vertex x/y/z");
   // The vertex element must come first for this reader (true for every PLY we ship and the Stanford set).
+  // Never trust the header's count for an allocation: it must fit in what the file still holds.
+  const std::streamoff here = f.tellg();
+  f.seekg(0, std::ios::end);
+  const std::uint64_t remaining = static_cast<std::uint64_t>(f.tellg() - here);
+  f.seekg(here);
+  const std::uint64_t min_bytes_per_vertex = ascii ? 2 * nprops : stride;
+  if (count > remaining / std::max<std::uint64_t>(1, min_bytes_per_vertex))
+    fail(path, "header claims " + std::to_string(count) + " vertices but the file holds at most " +
+                   std::to_string(remaining / std::max<std::uint64_t>(1, min_bytes_per_vertex)));
   std::vector<double> xyz;
   xyz.reserve(count * 3);
   if (ascii) {

@@ -46,6 +46,19 @@ class NeighbourSearch {
 
   index_t zeroVertex() const { return zero_vertex_; }
 
+  /// Hints the cache to fetch what a walk starting at vertex v reads first (its position and the
+  /// head of its edge records). Query loops call it a few queries ahead: with ICP's source order the
+  /// start vertex is a cache miss on nearly every query (measured ~30% of walk time on the dragon).
+  void prefetchStart(index_t v) const {
+    const DelaunayGraph& g = *graph_;
+    if (v >= g.points.size()) return;
+    __builtin_prefetch(&g.points[v]);
+    const EdgeRecord* e = g.edges.data() + g.offsets[v];
+    __builtin_prefetch(e);
+    __builtin_prefetch(reinterpret_cast<const char*>(e) + 64);
+    __builtin_prefetch(reinterpret_cast<const char*>(e) + 128);
+  }
+
  private:
   DelaunayGraph::ConstPtr graph_;
   KdAnnLocator kd_ann_;

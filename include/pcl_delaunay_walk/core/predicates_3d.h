@@ -99,7 +99,9 @@ inline double insphere(const double* a, const double* b, const double* c, const 
 }
 
 /// Sign of x as -1, 0, +1.
-inline int signOf(double x) { return (x > 0.0) - (x < 0.0); }
+inline int signOf(double x) {
+  return (x > 0.0) - (x < 0.0);
+}
 
 /// insphere under simulation of simplicity: every point's lifted coordinate |p|^2 is raised by an
 /// infinitesimal that is larger (by an unbounded factor) the larger the point's id. The determinant is

@@ -5,8 +5,9 @@
 /// Device layout (built from the core's CSR on upload): vertices as float4 (16-byte loads, 7 MB for the
 /// 437k dragon, so the whole vertex set stays in the H100's 50 MB L2) and, per directed edge, only the
 /// neighbour index j (4 bytes instead of the core's 20-byte record). The walk compares squared distances
-/// |q - x_j|^2 < |q - x_i|^2 directly, which is the same exactness argument as the core's c > m test
-/// (DESIGN.md §3) and is bit-for-bit the comparison a brute-force search makes.
+/// |q - x_j|^2 < |q - x_i|^2 directly (in double, from the float coordinates), which is the same
+/// exactness argument as the core's c > m test (DESIGN.md §3) and the very comparison a brute-force
+/// search makes. Reported distances are those doubles rounded to float.
 #pragma once
 
 #include <cuda_runtime_api.h>
@@ -28,6 +29,8 @@ struct DeviceGraphView {
   const float4* points = nullptr;          ///< n vertices, local frame, w = 0
   const std::uint32_t* offsets = nullptr;  ///< n + 1 CSR offsets
   const std::uint32_t* neighbours = nullptr;
+  /// Optional per-edge copy of the neighbour's position, w = j's bits (see setInlineNeighbourPositions).
+  const float4* edge_points = nullptr;
   const std::uint32_t* originals_offsets = nullptr;  ///< n + 1
   const std::uint32_t* originals = nullptr;          ///< input indices per vertex, ascending
   std::uint32_t num_vertices = 0;
@@ -69,9 +72,17 @@ class DelaunayWalk {
   void toLocal(const dw::PointView& points, std::vector<float4>& out) const;
 
   /// \brief Lanes cooperating on one query's neighbourhood scan: 1 (thread per query), 2, 4, 8, 16 or 32.
-  /// 0 picks the default (measured best on the H100, see docs/gpu.md).
+  /// 0 (the default) picks defaultGroupSize() for the uploaded graph. The ICP loop uses it too.
   void setGroupSize(int lanes);
   int groupSize() const { return group_size_; }
+  /// The lanes measured fastest on the H100 for a graph of this many vertices (docs/gpu.md).
+  static int defaultGroupSize(std::size_t num_vertices);
+
+  /// \brief Also store, per directed edge, the neighbour's position next to its index (16 bytes per
+  /// edge instead of 4): a scan then reads one contiguous run instead of gathering vertices, one
+  /// dependent load fewer per step. Pays while the edge array fits in L2 (docs/gpu.md). Synchronous.
+  void setInlineNeighbourPositions(bool on);
+  bool inlineNeighbourPositions() const { return view_.edge_points != nullptr; }
 
   /// \brief Exact nearest vertex of each query.
   /// \param[in] queries n queries (device)
@@ -101,7 +112,7 @@ class DelaunayWalk {
            DeviceArray<std::uint32_t>& indices, DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts,
            cudaStream_t stream = nullptr) const;
 
-  /// \brief Input points within `radius` (dist2 <= radius^2) of each query: the max_nn nearest of them,
+  /// \brief Input points within `radius` (dist2 <= radius^2, in double) of each query: the max_nn nearest of them,
   /// ascending. Output is bounded: n*max_nn slots, counts[i] says how many are valid.
   /// \param[in] radius search radius (>= 0, finite)
   /// \param[in] max_nn 1 .. kMaxK
@@ -118,7 +129,7 @@ class DelaunayWalk {
   void verticesToInputs(std::uint32_t* vertices, std::size_t n, cudaStream_t stream = nullptr) const;
 
  private:
-  void expand(const DeviceArray<float4>& queries, unsigned k, float radius2, const DeviceArray<std::uint32_t>* hints,
+  void expand(const DeviceArray<float4>& queries, unsigned k, double radius2, const DeviceArray<std::uint32_t>* hints,
               DeviceArray<std::uint32_t>& indices, DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts,
               cudaStream_t stream) const;
   void buildStartGrid(const dw::DelaunayGraph& graph, double cells_per_vertex);
@@ -126,6 +137,7 @@ class DelaunayWalk {
   DeviceArray<float4> points_;
   DeviceArray<std::uint32_t> offsets_;
   DeviceArray<std::uint32_t> neighbours_;
+  DeviceArray<float4> edge_points_;
   DeviceArray<std::uint32_t> originals_offsets_;
   DeviceArray<std::uint32_t> originals_;
   DeviceArray<std::uint32_t> grid_seeds_;
@@ -135,6 +147,7 @@ class DelaunayWalk {
   std::array<double, 3> origin_{{0.0, 0.0, 0.0}};
   std::size_t num_inputs_ = 0;
   int group_size_ = 8;
+  bool auto_group_size_ = true;
 };
 
 }  // namespace gpu

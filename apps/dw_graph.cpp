@@ -1,0 +1,152 @@
+// dw_graph: builds the Delaunay walk graph of a point cloud, saves it, and prints its statistics.
+//
+//   dw_graph input.{pcd,ply,bin} -o out.graph [--builder auto|qhull|incremental] [--threads N] [--quiet]
+//
+// The graph is built from the cloud's float coordinates exactly as pcl::search::DelaunayWalk reads
+// them, so the file can be given to DelaunayWalk::loadGraph / dw_icp --graph for the same cloud.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_types.h>
+
+#include "pcl_delaunay_walk/core/graph_builder.h"
+#include "pcl_delaunay_walk/core/graph_io.h"
+#include "pcl_delaunay_walk/core/point_file.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+bool endsWith(const std::string& s, const std::string& e) {
+  return s.size() >= e.size() && s.compare(s.size() - e.size(), e.size(), e) == 0;
+}
+
+/// xyz as PCL would hold them (float). PCD through PCL, PLY and KITTI .bin through the core reader.
+pcl::PointCloud<pcl::PointXYZ> loadCloud(const std::string& path) {
+  if (!std::ifstream(path).good()) throw dw::Error("cannot open '" + path + "'");
+  if (endsWith(path, ".gz")) throw dw::Error("'" + path + "' is compressed: gunzip it first");
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  if (endsWith(path, ".pcd")) {
+    if (pcl::io::loadPCDFile(path, cloud) < 0) throw dw::Error("'" + path + "' is not a readable PCD file");
+    return cloud;
+  }
+  const std::vector<double> xyz = dw::readPointsXyz(path);
+  cloud.resize(xyz.size() / 3);
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    cloud[i] = pcl::PointXYZ(float(xyz[3 * i]), float(xyz[3 * i + 1]), float(xyz[3 * i + 2]));
+  return cloud;
+}
+
+void usage() {
+  std::fprintf(stderr,
+               "usage: dw_graph input.{pcd,ply,bin} -o out.graph [--builder auto|qhull|incremental]\n"
+               "                [--threads N] [--quiet]\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string input, output;
+  dw::BuildOptions options;
+  bool quiet = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "dw_graph: %s needs a value\n", a.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "-o" || a == "--output") {
+      output = value();
+    } else if (a == "--builder") {
+      const std::string b = value();
+      if (b == "auto") options.builder = dw::BuilderType::Auto;
+      else if (b == "qhull") options.builder = dw::BuilderType::Qhull;
+      else if (b == "incremental") options.builder = dw::BuilderType::Incremental;
+      else {
+        std::fprintf(stderr, "dw_graph: unknown builder '%s'\n", b.c_str());
+        return 2;
+      }
+    } else if (a == "--threads") {
+      options.num_threads = static_cast<unsigned>(std::strtoul(value().c_str(), nullptr, 10));
+    } else if (a == "--quiet") {
+      quiet = true;
+    } else if (a == "-h" || a == "--help") {
+      usage();
+      return 0;
+    } else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr, "dw_graph: unknown option '%s'\n", a.c_str());
+      usage();
+      return 2;
+    } else if (input.empty()) {
+      input = a;
+    } else {
+      std::fprintf(stderr, "dw_graph: more than one input given\n");
+      return 2;
+    }
+  }
+  if (input.empty() || output.empty()) {
+    usage();
+    return 2;
+  }
+  try {
+    const auto t_load = Clock::now();
+    const auto cloud = loadCloud(input);
+    const double load_s = since(t_load);
+    std::printf("input        %s\npoints       %zu (loaded in %.3f s)\n", input.c_str(), cloud.size(), load_s);
+    // Progress on large inputs only: a line per stage and per 10%, on stderr so stdout stays parseable.
+    if (!quiet && cloud.size() >= 200000) {
+      options.progress = [last = std::string(), tenth = -1](const std::string& stage, double f) mutable {
+        const int t = static_cast<int>(f * 10);
+        if (stage != last || t != tenth) {
+          std::fprintf(stderr, "  [%s] %3d%%\n", stage.c_str(), t * 10);
+          last = stage;
+          tenth = t;
+        }
+      };
+    }
+    const auto t_build = Clock::now();
+    const dw::DelaunayGraph g = cloud.empty()
+                                    ? dw::buildDelaunayGraph(dw::PointView::fromFloat(nullptr, 0), options)
+                                    : dw::buildDelaunayGraph(
+                                          dw::PointView::fromFloat(&cloud[0].x, cloud.size(), sizeof(pcl::PointXYZ)),
+                                          options);
+    const double build_s = since(t_build);
+    const auto t_save = Clock::now();
+    dw::saveGraph(g, output);
+    const double save_s = since(t_save);
+
+    std::size_t skipped = 0;
+    for (dw::index_t v : g.input_to_vertex) skipped += v == dw::kInvalidIndex ? 1 : 0;
+    std::vector<std::size_t> deg(g.numVertices());
+    for (std::size_t v = 0; v < deg.size(); ++v) deg[v] = g.degree(static_cast<dw::index_t>(v));
+    std::sort(deg.begin(), deg.end());
+    auto pct = [&](double p) { return deg.empty() ? 0 : deg[std::min(deg.size() - 1, std::size_t(p * deg.size()))]; };
+    const double mean = deg.empty() ? 0.0 : double(g.numDirectedEdges()) / double(deg.size());
+    std::printf("non-finite   %zu (skipped)\n", skipped);
+    std::printf("vertices     %zu (%zu duplicate points collapsed)\n", g.numVertices(),
+                cloud.size() - skipped - g.numVertices());
+    std::printf("dimension    %d\n", g.dimension);
+    std::printf("edges        %zu undirected (%zu directed records)\n", g.numDirectedEdges() / 2, g.numDirectedEdges());
+    std::printf("degree       min %zu  median %zu  mean %.2f  p99 %zu  max %zu\n", deg.empty() ? 0 : deg.front(),
+                pct(0.5), mean, pct(0.99), deg.empty() ? 0 : deg.back());
+    std::printf("origin       %.6f %.6f %.6f\n", g.origin[0], g.origin[1], g.origin[2]);
+    std::printf("memory       %.1f MiB (%.0f B/point)\n", g.memoryBytes() / 1048576.0,
+                cloud.empty() ? 0.0 : double(g.memoryBytes()) / double(cloud.size()));
+    std::printf("build time   %.3f s (%.0f points/s)\n", build_s, build_s > 0 ? cloud.size() / build_s : 0.0);
+    std::printf("saved        %s in %.3f s\n", output.c_str(), save_s);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dw_graph: error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

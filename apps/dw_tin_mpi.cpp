@@ -1,0 +1,194 @@
+/// \file dw_tin_mpi.cpp
+/// \brief Distributed Delaunay TIN of a LAS file over MPI ranks.
+///   mpirun -np N dw_tin_mpi input.las -o PREFIX        (pieces PREFIX.rank<r>.ply + PREFIX.manifest.json)
+///   mpirun -np N dw_tin_mpi input.las --gather -o out.ply
+/// Exit status: 0 success; 1 bad input or a failing rank (all ranks are aborted, no manifest); 2 usage;
+/// 3 --verify found a difference from the single-process triangulation.
+#include <mpi.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "pcl_delaunay_walk/core/las/las_reader.h"
+#include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
+#include "pcl_delaunay_walk/mpi/distributed_tin.h"
+
+namespace {
+
+void usage() {
+  std::fprintf(
+      stderr,
+      "usage: mpirun -np N dw_tin_mpi input.las -o PREFIX|out.ply [--gather] [--class C] [--threads T]\n"
+      "                  [--verify] [--max-points N] [--quiet] [--inject fail|kill:STAGE:RANK]\n"
+      "  -o PREFIX   per-rank pieces PREFIX.rank<r>.ply and, written last, PREFIX.manifest.json\n"
+      "  --gather    one PLY on rank 0 instead (-o out.ply); rank 0 then holds the whole mesh\n"
+      "  --class C   keep points of LAS classification C (2 = ground)\n"
+      "  --threads T threads per rank for the local triangulations (default 1)\n"
+      "  --verify    rank 0 also runs the single-process dw::tin::triangulate and compares\n"
+      "  --max-points N  use only the first N records of the file (weak-scaling runs)\n"
+      "  --inject    testing: make RANK fail (exception) or be killed at STAGE\n"
+      "              (read, leaf, merge, write)\n");
+}
+
+std::array<dw::index_t, 3> canonical(const dw::index_t* t) {
+  const int m = (t[1] < t[0] && t[1] < t[2]) ? 1 : (t[2] < t[0] && t[2] < t[1]) ? 2 : 0;
+  return {t[m], t[(m + 1) % 3], t[(m + 2) % 3]};
+}
+
+std::vector<std::array<dw::index_t, 3>> canonicalSet(const std::vector<dw::index_t>& t) {
+  std::vector<std::array<dw::index_t, 3>> s(t.size() / 3);
+  for (std::size_t i = 0; i < s.size(); ++i) s[i] = canonical(&t[3 * i]);
+  std::sort(s.begin(), s.end());
+  return s;
+}
+
+/// Rank 0: the single-process run on the same frame; true when the triangle sets are identical.
+bool verify(const dw::mpi::DistributedTinOptions& o, const std::vector<dw::index_t>& got, unsigned threads) {
+  dw::las::LasReadOptions lo;
+  lo.classification = o.classification;
+  const dw::las::LasCloud las = dw::las::readLasFile(o.input, lo);
+  const bool same = las.header.scale[0] == las.header.scale[1];
+  const std::size_t n = o.max_records ? std::min<std::size_t>(o.max_records, las.size()) : las.size();
+  std::vector<double> x(n), y(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    x[i] = same ? double(las.X[i]) : las.X[i] * las.header.scale[0];
+    y[i] = same ? double(las.Y[i]) : las.Y[i] * las.header.scale[1];
+  }
+  dw::tin::TinOptions topt;
+  topt.num_threads = threads;
+  const dw::tin::TinResult ref = dw::tin::triangulate(std::move(x), std::move(y), topt);
+  const auto a = canonicalSet(got), b = canonicalSet(ref.triangles);
+  const bool twice = std::adjacent_find(a.begin(), a.end()) != a.end();
+  std::fprintf(stderr, "verify: distributed %zu triangles%s, single-process %zu: %s\n", a.size(),
+               twice ? " (some emitted twice!)" : "", b.size(), a == b ? "IDENTICAL" : "DIFFERENT");
+  return a == b;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  MPI_Init(&argc, &argv);
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  dw::mpi::DistributedTinOptions opt;
+  std::string out;
+  bool gather = false, check = false, quiet = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        if (rank == 0) usage();
+        MPI_Finalize();
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    try {
+      if (a == "-o" || a == "--output")
+        out = next();
+      else if (a == "--gather")
+        gather = true;
+      else if (a == "--class")
+        opt.classification = std::stoi(next());
+      else if (a == "--threads")
+        opt.num_threads = static_cast<unsigned>(std::stoul(next()));
+      else if (a == "--verify")
+        check = true;
+      else if (a == "--max-points")
+        opt.max_records = std::stoull(next());
+      else if (a == "--quiet")
+        quiet = true;
+      else if (a == "--inject") {
+        const std::string s = next();
+        const auto c1 = s.find(':'), c2 = s.rfind(':');
+        if (c1 == std::string::npos || c1 == c2) throw std::invalid_argument(s);
+        opt.fault_kill = s.substr(0, c1) == "kill";
+        opt.fault_stage = s.substr(c1 + 1, c2 - c1 - 1);
+        opt.fault_rank = std::stoi(s.substr(c2 + 1));
+      } else if (a == "-h" || a == "--help") {
+        if (rank == 0) usage();
+        MPI_Finalize();
+        return 0;
+      } else if (!a.empty() && a[0] != '-' && opt.input.empty())
+        opt.input = a;
+      else
+        throw std::invalid_argument(a);
+    } catch (const std::exception&) {
+      if (rank == 0) {
+        std::fprintf(stderr, "dw_tin_mpi: bad argument '%s'\n", a.c_str());
+        usage();
+      }
+      MPI_Finalize();
+      return 2;
+    }
+  }
+  if (check && opt.max_records && opt.classification >= 0) {
+    if (rank == 0) std::fprintf(stderr, "dw_tin_mpi: --verify cannot combine --max-points with --class\n");
+    MPI_Finalize();
+    return 2;
+  }
+  if (opt.input.empty() || out.empty()) {
+    if (rank == 0) usage();
+    MPI_Finalize();
+    return 2;
+  }
+  if (!quiet)
+    opt.progress = [](const std::string& s) { std::fprintf(stderr, "[dw_tin_mpi] %s\n", s.c_str()); };
+
+  int status = 0;
+  try {
+    // A manifest from an earlier run must not survive a failing one.
+    if (rank == 0 && !gather) std::remove((out + ".manifest.json").c_str());
+    MPI_Barrier(MPI_COMM_WORLD);
+    const auto t0 = std::chrono::steady_clock::now();
+    dw::mpi::RankTin tin = dw::mpi::triangulateDistributed(MPI_COMM_WORLD, opt);
+    const auto t1 = std::chrono::steady_clock::now();
+    if (gather)
+      dw::mpi::writeGathered(MPI_COMM_WORLD, out, tin, opt);
+    else
+      dw::mpi::writePiecesAndManifest(MPI_COMM_WORLD, out, tin, opt);
+    tin.timings.write_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+    const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+    // Per-rank timings table on rank 0.
+    const double row[8] = {tin.timings.read_s,
+                           tin.timings.exchange_s,
+                           tin.timings.leaf_s,
+                           tin.timings.merge_s,
+                           tin.timings.write_s,
+                           double(tin.slab_points),
+                           double(tin.emitted.triangles.size() / 3),
+                           double(tin.emitted.band_points)};
+    std::vector<double> rows(8 * static_cast<std::size_t>(size));
+    MPI_Gather(row, 8, MPI_DOUBLE, rows.data(), 8, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    if (rank == 0 && !quiet) {
+      std::fprintf(stderr,
+                   "rank   read_s  exch_s  leaf_s merge_s write_s   slab_pts  emitted_tris  triangulated\n");
+      for (int r = 0; r < size; ++r) {
+        const double* v = &rows[8 * r];
+        std::fprintf(stderr, "%4d %8.2f %7.2f %7.2f %7.2f %7.2f %10.0f %13.0f %13.0f\n", r, v[0], v[1], v[2],
+                     v[3], v[4], v[5], v[6], v[7]);
+      }
+      std::fprintf(stderr, "total %.2f s for %llu points on %d ranks (%.2f M points/s)\n", total,
+                   static_cast<unsigned long long>(tin.total_points), size, tin.total_points / total / 1e6);
+    }
+    if (check) {
+      const std::vector<dw::index_t> all = dw::mpi::gatherTriangles(MPI_COMM_WORLD, tin);
+      if (rank == 0 && !verify(opt, all, std::max(1u, opt.num_threads))) status = 3;
+      MPI_Bcast(&status, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dw_tin_mpi: rank %d of %d failed: %s\n", rank, size, e.what());
+    std::fflush(stderr);
+    // Other ranks may be blocked in a collective: abort the whole job with a non-zero status.
+    MPI_Abort(MPI_COMM_WORLD, 1);
+    return 1;
+  }
+  MPI_Finalize();
+  return status;
+}

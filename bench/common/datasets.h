@@ -1,0 +1,177 @@
+/// \file datasets.h
+/// \brief The benchmark data sets (seed §5: teapot, bunny, dragon, plus one real LiDAR frame), loaded
+/// from the shared data folder, with the gzipped dragons unpacked once into the build directory.
+#pragma once
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <sys/stat.h>
+#include <vector>
+
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_types.h>
+
+#include "pcl_delaunay_walk/core/point_file.h"
+#include "pcl_delaunay_walk/core/types.h"
+
+namespace dwb {
+
+/// One reference cloud: finite points only (every peer gets exactly the same input), xyz floats.
+struct Dataset {
+  std::string name;    ///< protocol name, e.g. "dragon-100k"
+  std::string source;  ///< file it came from
+  std::vector<float> xyz;
+  std::size_t size() const { return xyz.size() / 3; }
+};
+
+/// Data set names in protocol order (small to large). A ":half" suffix keeps every second point: the
+/// seed's "downsampled by 2" fidelity for sets we have at one resolution only.
+inline std::vector<std::string> knownDatasets() {
+  return {"teapot-792", "dragon-5k",   "bunny-8k",   "dragon-23k",
+          "bunny-36k",  "lidar-69k",   "dragon-100k", "dragon-437k"};
+}
+
+inline bool fileExists(const std::string& p) {
+  struct stat st;
+  return ::stat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+/// Finds a real cloud: in $DW_DATA_DIR, else the shared data, else the repository's data/ (which holds
+/// a subset). Each candidate is tried for the file itself.
+inline std::string findDataFile(const std::string& subdir, const std::string& file) {
+  std::vector<std::string> cands;
+  if (const char* env = std::getenv("DW_DATA_DIR")) {
+    cands.push_back(std::string(env) + "/" + subdir + "/" + file);
+    cands.push_back(std::string(env) + "/" + file);
+  }
+#ifdef DW_SHARED_DATA_DIR
+  cands.push_back(std::string(DW_SHARED_DATA_DIR) + "/" + subdir + "/" + file);
+#endif
+#ifdef DW_TEST_DATA_DIR
+  cands.push_back(std::string(DW_TEST_DATA_DIR) + "/" + file);
+#endif
+  // Targets without those definitions (apps/dw_bench): the checkout this header lives in.
+  std::string root = __FILE__;
+  for (int up = 0; up < 3; ++up) root = root.substr(0, root.find_last_of('/') == std::string::npos ? 0 : root.find_last_of('/'));
+  if (!root.empty()) {
+    cands.push_back(root + "/../shared/data/" + subdir + "/" + file);
+    cands.push_back(root + "/data/" + file);
+  }
+  for (const auto& c : cands)
+    if (fileExists(c)) return c;
+  std::string msg = "dw_bench: data file '" + file + "' not found; looked in:";
+  for (const auto& c : cands) msg += " " + c;
+  throw dw::Error(msg + " (set DW_DATA_DIR to the shared data folder)");
+}
+
+/// Where unpacked data goes: $DW_BENCH_CACHE, else <build dir>/bench-data (the build dir is the parent
+/// of the running executable's folder: build/apps/dw_bench, build/bench/bench_search).
+inline std::string cacheDir() {
+  std::string dir;
+  if (const char* env = std::getenv("DW_BENCH_CACHE")) {
+    dir = env;
+  } else {
+    char buf[4096];
+    const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
+    std::string exe = n > 0 ? std::string(buf, static_cast<std::size_t>(n)) : std::string("./x");
+    for (int up = 0; up < 2; ++up) {
+      const auto slash = exe.find_last_of('/');
+      exe = slash == std::string::npos ? std::string(".") : exe.substr(0, slash);
+    }
+    dir = exe + "/bench-data";
+  }
+  ::mkdir(dir.c_str(), 0755);
+  return dir;
+}
+
+/// Gunzips `gz` into the cache once (by name) and returns the unpacked path. Uses the system gzip:
+/// the benchmark needs it for two files only, which is not worth a zlib dependency.
+inline std::string gunzipToCache(const std::string& gz) {
+  std::string base = gz.substr(gz.find_last_of('/') + 1);
+  base = base.substr(0, base.size() - 3);
+  const std::string out = cacheDir() + "/" + base;
+  if (fileExists(out)) return out;
+  const std::string tmp = out + ".part" + std::to_string(::getpid());
+  const std::string cmd = "gzip -dc '" + gz + "' > '" + tmp + "'";
+  if (std::system(cmd.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw dw::Error("dw_bench: could not gunzip '" + gz + "' (is gzip installed?)");
+  }
+  if (std::rename(tmp.c_str(), out.c_str()) != 0) throw dw::Error("dw_bench: cannot write '" + out + "'");
+  return out;
+}
+
+inline void appendFinite(std::vector<float>& xyz, double x, double y, double z) {
+  if (std::isfinite(x) && std::isfinite(y) && std::isfinite(z))
+    xyz.insert(xyz.end(), {static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)});
+}
+
+/// Loads a data set by protocol name; throws dw::Error for an unknown name or a missing file.
+inline Dataset loadDataset(const std::string& full_name) {
+  std::string name = full_name;
+  bool half = false;
+  if (name.size() > 5 && name.compare(name.size() - 5, 5, ":half") == 0) {
+    half = true;
+    name.resize(name.size() - 5);
+  }
+  struct Entry {
+    const char* name;
+    const char* subdir;
+    const char* file;
+  };
+  static const Entry entries[] = {
+      {"teapot-792", "models", "teapot_points.ply"},     {"bunny-8k", "models", "bun_zipper_res2.ply"},
+      {"bunny-36k", "models", "bun_zipper.ply"},         {"dragon-5k", "models", "dragon_vrip_res4.ply"},
+      {"dragon-23k", "models", "dragon_vrip_res3.ply"},  {"dragon-100k", "models", "dragon_vrip_res2.ply.gz"},
+      {"dragon-437k", "models", "dragon_vrip.ply.gz"},   {"lidar-69k", "scans", "fastgicp_251370668.pcd"},
+  };
+  const Entry* e = nullptr;
+  for (const auto& c : entries)
+    if (name == c.name) e = &c;
+  if (!e) {
+    std::string msg = "dw_bench: unknown data set '" + full_name + "' (known:";
+    for (const auto& c : entries) msg += std::string(" ") + c.name;
+    throw dw::Error(msg + "; append :half for every second point)");
+  }
+  Dataset d;
+  d.name = full_name;
+  std::string path = findDataFile(e->subdir, e->file);
+  const std::string file = e->file;
+  if (file.size() > 3 && file.compare(file.size() - 3, 3, ".gz") == 0) path = gunzipToCache(path);
+  d.source = path;
+  if (file.size() > 4 && file.compare(file.size() - 4, 4, ".pcd") == 0) {
+    pcl::PointCloud<pcl::PointXYZ> cloud;
+    if (pcl::io::loadPCDFile(path, cloud) != 0) throw dw::Error("dw_bench: cannot read PCD '" + path + "'");
+    d.xyz.reserve(cloud.size() * 3);
+    for (const auto& p : cloud.points) appendFinite(d.xyz, p.x, p.y, p.z);
+  } else {
+    const std::vector<double> raw = dw::readPointsXyz(path);
+    d.xyz.reserve(raw.size());
+    for (std::size_t i = 0; i + 2 < raw.size(); i += 3) appendFinite(d.xyz, raw[i], raw[i + 1], raw[i + 2]);
+  }
+  if (half) {
+    std::vector<float> kept;
+    kept.reserve(d.xyz.size() / 2 + 3);
+    for (std::size_t i = 0; i < d.size(); i += 2) kept.insert(kept.end(), &d.xyz[3 * i], &d.xyz[3 * i] + 3);
+    d.xyz.swap(kept);
+  }
+  if (d.size() == 0) throw dw::Error("dw_bench: data set '" + full_name + "' has no finite points");
+  return d;
+}
+
+/// A pcl::PointCloud view of a data set (what PCL's searches and ICP take).
+inline pcl::PointCloud<pcl::PointXYZ>::Ptr toCloud(const std::vector<float>& xyz) {
+  pcl::PointCloud<pcl::PointXYZ>::Ptr c(new pcl::PointCloud<pcl::PointXYZ>);
+  c->resize(xyz.size() / 3);
+  for (std::size_t i = 0; i < c->size(); ++i) (*c)[i] = pcl::PointXYZ(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+  c->width = static_cast<std::uint32_t>(c->size());
+  c->height = 1;
+  c->is_dense = true;
+  return c;
+}
+
+}  // namespace dwb

@@ -1,0 +1,131 @@
+/// \file iterative_closest_point.h
+/// \brief pcl::gpu::IterativeClosestPoint: the whole point-to-point ICP loop on the device, with the
+/// semantics of PCL 1.13's IterativeClosestPoint + TransformationEstimationSVD +
+/// DefaultConvergenceCriteria, and a batched form that registers many sources against one target.
+///
+/// Per iteration, three kernels and no host synchronisation: (1) every source point is transformed by
+/// its source's current estimate and walked to its exact nearest target vertex from the previous
+/// iteration's answer (PNN), kept when dist^2 <= max_correspondence_distance^2; (2) the 17 sums of the
+/// cross-covariance are reduced in double per source (deterministic order); (3) one thread per source
+/// solves the step (rigid_transform.h), composes the transform and applies PCL's convergence rules,
+/// setting a per-source "done" flag that makes later launches for that source return at once. The
+/// host reads a done count from mapped memory to stop launching early. The walk uses the target's
+/// group size and layout (DelaunayWalk::setGroupSize, setInlineNeighbourPositions).
+#pragma once
+
+#include <cuda_runtime_api.h>
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include "pcl_delaunay_walk/core/point_view.h"
+#include "pcl_delaunay_walk/gpu/delaunay_walk.h"
+#include "pcl_delaunay_walk/gpu/device_array.h"
+
+namespace pcl {
+namespace gpu {
+
+/// Row-major 4x4 rigid transform (double), world frame: target ~ T * source.
+using Matrix4d = std::array<double, 16>;
+inline Matrix4d identityMatrix4d() { return {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}; }
+
+/// Mirrors pcl::registration::DefaultConvergenceCriteria::ConvergenceState.
+enum class ConvergenceState : int {
+  NotConverged = 0,
+  Iterations = 1,
+  Transform = 2,
+  AbsMse = 3,
+  RelMse = 4,
+  NoCorrespondences = 5,
+  FailureAfterMaxIterations = 6,
+};
+const char* toString(ConvergenceState s);
+
+/// ICP settings, with PCL 1.13's defaults and meanings.
+struct IcpParameters {
+  int max_iterations = 10;                   ///< Registration::setMaximumIterations
+  double transformation_epsilon = 0.0;       ///< compared with the step's squared translation (as PCL does)
+  double transformation_rotation_epsilon = 0.0;  ///< cos threshold; 0: 1 - transformation_epsilon
+  double euclidean_fitness_epsilon = -std::numeric_limits<double>::max();  ///< relative MSE change
+  double max_correspondence_distance = std::sqrt(std::numeric_limits<double>::max());
+  double mse_threshold_absolute = 1e-12;     ///< DefaultConvergenceCriteria's absolute MSE threshold
+  int max_iterations_similar_transforms = 0;
+  bool failure_after_max_iterations = false;
+  unsigned min_number_correspondences = 3;
+};
+
+/// Outcome of one registration.
+struct IcpResult {
+  Matrix4d transformation = identityMatrix4d();  ///< final_transformation_ (guess included)
+  int iterations = 0;                            ///< nr_iterations_
+  ConvergenceState state = ConvergenceState::NotConverged;
+  bool converged = false;                        ///< hasConverged() as PCL reports it
+  double mse = 0.0;                              ///< mean squared correspondence distance, last iteration
+  std::uint32_t correspondences = 0;             ///< correspondences of the last iteration
+};
+
+class IterativeClosestPoint {
+ public:
+  using Ptr = std::shared_ptr<IterativeClosestPoint>;
+
+  /// \brief Registers sources against `target`, an uploaded graph shared with other users.
+  explicit IterativeClosestPoint(DelaunayWalk::ConstPtr target);
+  ~IterativeClosestPoint();
+  IterativeClosestPoint(const IterativeClosestPoint&) = delete;
+  IterativeClosestPoint& operator=(const IterativeClosestPoint&) = delete;
+
+  void setParameters(const IcpParameters& p);
+  const IcpParameters& parameters() const { return params_; }
+
+  /// \brief Replaces every source by this one (world frame). Non-finite points are dropped.
+  void setInputSource(const dw::PointView& source);
+  /// \brief Adds a source for the batched alignAll(); returns its index.
+  std::size_t addSource(const dw::PointView& source);
+  void clearSources();
+  std::size_t numSources() const { return sources_.size(); }
+
+  /// \brief Registers source 0 starting from `guess` (PCL's align(output, guess)).
+  IcpResult align(const Matrix4d& guess = identityMatrix4d());
+  /// \brief Registers every source in one set of launches; guesses: one per source, or empty (identity).
+  std::vector<IcpResult> alignAll(const std::vector<Matrix4d>& guesses = {});
+
+  /// \brief The stream every launch goes to (default: a stream owned by this object).
+  cudaStream_t stream() const { return stream_; }
+
+ private:
+  struct HostSource {
+    std::size_t begin = 0, size = 0;  ///< range in the concatenated device source array
+    double centroid[3] = {0, 0, 0};   ///< device points are stored relative to it (float precision)
+  };
+  void uploadLayout();
+
+  DelaunayWalk::ConstPtr target_;
+  IcpParameters params_;
+  std::vector<HostSource> sources_;
+  std::vector<float4> host_points_;  ///< concatenated, centred, Morton-sorted per source
+  bool dirty_ = true;
+
+  DeviceArray<float4> points_;
+  DeviceArray<std::uint32_t> hints_;         ///< per point: last nearest vertex (PNN start)
+  DeviceArray<float> corr_d2_;               ///< per point: accepted squared distance, or -1
+  DeviceArray<std::uint32_t> point_source_;  ///< per point: its source
+  DeviceArray<std::uint32_t> block_source_;
+  DeviceArray<std::uint32_t> source_meta_;  ///< per source: begin, size, first block, #blocks
+  DeviceArray<double> partials_;
+  DeviceArray<unsigned char> states_;      ///< per-source solver state (see the .cu)
+  std::uint32_t num_blocks_ = 0;
+  cudaStream_t stream_ = nullptr;
+  std::array<cudaEvent_t, 3> events_{};  ///< ring: limits how many iterations are queued ahead
+  unsigned* done_host_ = nullptr;          ///< mapped pinned: how many sources are done
+  unsigned* done_host_dev_ = nullptr;      ///< its device address
+  DeviceArray<unsigned> done_count_;
+  DeviceArray<unsigned> tickets_;          ///< per source: blocks finished this iteration
+  DeviceArray<double> sums_;               ///< per source: the 17 sums of this iteration
+};
+
+}  // namespace gpu
+}  // namespace pcl

@@ -1,0 +1,529 @@
+// pcl::gpu::IterativeClosestPoint: the device-resident ICP loop (see the header for the design).
+#include "pcl_delaunay_walk/gpu/iterative_closest_point.h"
+
+#include <algorithm>
+#include <cstring>
+#include <numeric>
+#include <string>
+
+#include "pcl_delaunay_walk/core/space_filling_curve.h"
+#include "pcl_delaunay_walk/gpu/rigid_transform.h"
+#include "walk_device.cuh"
+
+namespace pcl {
+namespace gpu {
+namespace {
+
+namespace cg = cooperative_groups;
+using detail::kInvalid;
+
+constexpr int kBlock = 256;
+constexpr int kAhead = 3;           // iterations queued ahead of the GPU at most
+constexpr int kSums = 17;           // count, sum q (3), sum t (3), sum q t^T (9), sum d2
+
+/// Solver state of one source, in device memory. Composite transform: target_local = r * p + t with p
+/// relative to the source centroid c; the float copy is what the correspondence kernel applies (PCL
+/// likewise transforms a float copy of the source).
+struct SourceState {
+  double r[9], t[3], c[3];
+  double prev_mse, mse;
+  float rf[12];
+  int iterations, similar, state, done;
+  unsigned count;
+};
+
+struct SolveParams {
+  double max_dist2, rotation_threshold, translation_threshold, relative_mse, absolute_mse;
+  double origin[3];
+  int max_iterations, max_similar, failure_after_max;
+  unsigned min_correspondences;
+};
+
+__device__ void finish(SourceState& st, int state, unsigned* done_count, volatile unsigned* done_host) {
+  st.state = state;
+  st.done = 1;
+  // Counted on the device; the count is then stored into mapped host memory for the host's poll. Two
+  // sources finishing together may store out of order: the host then stops launching a little later.
+  *done_host = atomicAdd(done_count, 1u) + 1u;
+}
+
+/// The step and PCL's convergence rules for one source, from its 17 sums (one thread).
+__device__ void solveStep(SourceState& st, const double* acc, const SolveParams& prm, unsigned* done_count,
+                          volatile unsigned* done_host) {
+  const double n = acc[0];
+  st.count = unsigned(n);
+  if (n < double(prm.min_correspondences)) {  // PCL: "Not enough correspondences found"; not converged
+    finish(st, int(ConvergenceState::NoCorrespondences), done_count, done_host);
+    return;
+  }
+  // TransformationEstimationSVD on (transformed source q, target t): the step, near the identity.
+  const double mq[3] = {acc[1] / n, acc[2] / n, acc[3] / n};
+  const double mt[3] = {acc[4] / n, acc[5] / n, acc[6] / n};
+  double cov[3][3];
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) cov[a][b] = acc[7 + 3 * a + b] - n * mq[a] * mt[b];
+  double rs[9];
+  rotationFromCrossCovariance(cov, rs);
+  double ts[3];
+  for (int a = 0; a < 3; ++a) ts[a] = mt[a] - (rs[3 * a] * mq[0] + rs[3 * a + 1] * mq[1] + rs[3 * a + 2] * mq[2]);
+  // Compose: (rs, ts) o (r, t), all in the target's local frame.
+  double r[9], t[3];
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b)
+      r[3 * a + b] = rs[3 * a] * st.r[b] + rs[3 * a + 1] * st.r[3 + b] + rs[3 * a + 2] * st.r[6 + b];
+    t[a] = rs[3 * a] * st.t[0] + rs[3 * a + 1] * st.t[1] + rs[3 * a + 2] * st.t[2] + ts[a];
+  }
+  for (int k = 0; k < 9; ++k) {
+    st.r[k] = r[k];
+    st.rf[k] = float(r[k]);
+  }
+  for (int a = 0; a < 3; ++a) {
+    st.t[a] = t[a];
+    st.rf[9 + a] = float(t[a]);
+  }
+  ++st.iterations;
+
+  // pcl::registration::DefaultConvergenceCriteria::hasConverged, rule for rule, on the world-frame
+  // step: the local step conjugated by the target origin o has translation ts + (I - rs) o.
+  double tw[3];
+  for (int a = 0; a < 3; ++a)
+    tw[a] = ts[a] + prm.origin[a] -
+            (rs[3 * a] * prm.origin[0] + rs[3 * a + 1] * prm.origin[1] + rs[3 * a + 2] * prm.origin[2]);
+  bool similar = false;
+  if (st.iterations >= prm.max_iterations) {
+    if (!prm.failure_after_max) {
+      finish(st, int(ConvergenceState::Iterations), done_count, done_host);
+      return;
+    }
+    st.state = int(ConvergenceState::FailureAfterMaxIterations);
+  }
+  const double cos_angle = 0.5 * (rs[0] + rs[4] + rs[8] - 1.0);
+  const double translation_sqr = tw[0] * tw[0] + tw[1] * tw[1] + tw[2] * tw[2];
+  if (cos_angle >= prm.rotation_threshold && translation_sqr <= prm.translation_threshold) {
+    if (st.similar >= prm.max_similar) {
+      finish(st, int(ConvergenceState::Transform), done_count, done_host);
+      return;
+    }
+    similar = true;
+  }
+  const double mse = acc[16] / n;
+  st.mse = mse;
+  if (fabs(mse - st.prev_mse) < prm.absolute_mse) {
+    if (st.similar >= prm.max_similar) {
+      finish(st, int(ConvergenceState::AbsMse), done_count, done_host);
+      return;
+    }
+    similar = true;
+  }
+  if (fabs(mse - st.prev_mse) / st.prev_mse < prm.relative_mse) {
+    if (st.similar >= prm.max_similar) {
+      finish(st, int(ConvergenceState::RelMse), done_count, done_host);
+      return;
+    }
+    similar = true;
+  }
+  st.similar = similar ? st.similar + 1 : 0;
+  st.prev_mse = mse;
+  if (st.state == int(ConvergenceState::FailureAfterMaxIterations)) finish(st, st.state, done_count, done_host);
+}
+
+/// The correspondence half of one ICP iteration, for every source not yet done. Each block transforms
+/// and walks its points and writes 17 partial sums; the last block of a source to finish (atomic
+/// ticket, the classic threadfence reduction) sums that source's partials in a fixed order, so the
+/// result is deterministic and the same in a batch as alone. solveKernel then takes the step.
+/// Correspondences of one ICP iteration: every point of every running source is transformed by its
+/// source's current estimate and walked to its exact nearest target vertex from the previous answer
+/// (PNN). The same lean kernel shape as DelaunayWalk::nearest (G lanes per query, ~32 registers), so
+/// as many walks are in flight as there: the reduction lives in the next kernel, because fused here it
+/// raised the registers and cut the walks in flight ~3x (measured 75 us per iteration instead of ~25
+/// on the 100k dragon, docs/gpu.md).
+template <int G>
+__global__ void __launch_bounds__(kBlock) correspondKernel(DeviceGraphView g, const float4* __restrict__ pts,
+                                                           const std::uint32_t* __restrict__ point_source,
+                                                           std::uint32_t n, const SourceState* __restrict__ states,
+                                                           double max_dist2, std::uint32_t* __restrict__ hints,
+                                                           float* __restrict__ corr_d2) {
+  const std::size_t i = (std::size_t(blockIdx.x) * kBlock + threadIdx.x) / G;
+  if (i >= n) return;  // tile-uniform: its lanes share i
+  const SourceState& st = states[point_source[i]];
+  if (st.done) return;
+  const float4 p = pts[i];
+  const float qx = fmaf(st.rf[0], p.x, fmaf(st.rf[1], p.y, fmaf(st.rf[2], p.z, st.rf[9])));
+  const float qy = fmaf(st.rf[3], p.x, fmaf(st.rf[4], p.y, fmaf(st.rf[5], p.z, st.rf[10])));
+  const float qz = fmaf(st.rf[6], p.x, fmaf(st.rf[7], p.y, fmaf(st.rf[8], p.z, st.rf[11])));
+  float out = -1.f;  // rejected (no vertex, non-finite, or beyond the distance)
+  std::uint32_t v = hints[i];
+  if (g.num_vertices != 0 && detail::finite3(qx, qy, qz)) {
+    double d2;
+    std::uint32_t steps;
+    const std::uint32_t start = detail::startVertex(g, qx, qy, qz, v);
+    if constexpr (G == 1) {
+      v = detail::walkThread(g, qx, qy, qz, start, d2, steps);
+    } else {
+      v = detail::walkTile<G>(cg::tiled_partition<G>(cg::this_thread_block()), g, qx, qy, qz, start, d2, steps);
+    }
+    if (d2 <= max_dist2) out = float(d2);  // PCL: rejected when distance > max_distance^2
+  }
+  if (G == 1 || threadIdx.x % G == 0) {
+    hints[i] = v;
+    corr_d2[i] = out;
+  }
+}
+
+/// The 17 sums of the accepted correspondences, per source: each block strides over its source's
+/// points (recomputing q exactly as the walk did), reduces in double, writes a partial; the last block
+/// of a source (atomic ticket, the classic threadfence reduction) sums the partials in a fixed order,
+/// so the result is deterministic and the same whether the source is alone or in a batch.
+__global__ void __launch_bounds__(kBlock) accumulateKernel(DeviceGraphView g, const float4* __restrict__ pts,
+                                                           const std::uint32_t* __restrict__ hints,
+                                                           const float* __restrict__ corr_d2,
+                                                           const std::uint32_t* __restrict__ block_source,
+                                                           const std::uint32_t* __restrict__ meta,
+                                                           const SourceState* __restrict__ states,
+                                                           double* __restrict__ partials, unsigned* tickets,
+                                                           double* __restrict__ sums) {
+  const std::uint32_t s = block_source[blockIdx.x];
+  const SourceState& st = states[s];
+  if (st.done) return;  // the whole block belongs to one source: uniform exit
+  const std::uint32_t begin = meta[4 * s], size = meta[4 * s + 1], first_block = meta[4 * s + 2],
+                      nb = meta[4 * s + 3];
+  float m[12];
+#pragma unroll
+  for (int k = 0; k < 12; ++k) m[k] = st.rf[k];
+  double acc[kSums];
+#pragma unroll
+  for (int k = 0; k < kSums; ++k) acc[k] = 0.0;
+  for (std::uint32_t local = (blockIdx.x - first_block) * kBlock + threadIdx.x; local < size; local += nb * kBlock) {
+    const std::uint32_t i = begin + local;
+    const float d2 = corr_d2[i];
+    if (!(d2 >= 0.f)) continue;
+    const float4 p = pts[i];
+    const double x = fmaf(m[0], p.x, fmaf(m[1], p.y, fmaf(m[2], p.z, m[9])));
+    const double y = fmaf(m[3], p.x, fmaf(m[4], p.y, fmaf(m[5], p.z, m[10])));
+    const double z = fmaf(m[6], p.x, fmaf(m[7], p.y, fmaf(m[8], p.z, m[11])));
+    const float4 t = __ldg(g.points + hints[i]);
+    const double tx = t.x, ty = t.y, tz = t.z;
+    acc[0] += 1.0;
+    acc[1] += x; acc[2] += y; acc[3] += z;
+    acc[4] += tx; acc[5] += ty; acc[6] += tz;
+    acc[7] += x * tx; acc[8] += x * ty; acc[9] += x * tz;
+    acc[10] += y * tx; acc[11] += y * ty; acc[12] += y * tz;
+    acc[13] += z * tx; acc[14] += z * ty; acc[15] += z * tz;
+    acc[16] += d2;
+  }
+  __shared__ double part[kBlock / 32][kSums];
+  const int warp = threadIdx.x / 32, lane = threadIdx.x % 32;
+#pragma unroll
+  for (int k = 0; k < kSums; ++k) {
+#pragma unroll
+    for (int o = 16; o > 0; o /= 2) acc[k] += __shfl_down_sync(0xffffffffu, acc[k], o);
+    if (lane == 0) part[warp][k] = acc[k];
+  }
+  __syncthreads();
+  __shared__ bool last;
+  if (threadIdx.x < kSums) {
+    double v = 0.0;
+    for (int w = 0; w < kBlock / 32; ++w) v += part[w][threadIdx.x];
+    partials[std::size_t(blockIdx.x) * kSums + threadIdx.x] = v;
+    __threadfence();  // partials visible device-wide before the ticket says so
+  }
+  __syncthreads();
+  if (threadIdx.x == 0) last = atomicAdd(tickets + s, 1u) == nb - 1;
+  __syncthreads();
+  if (!last) return;
+  __threadfence();
+  // Thread (row, col) sums column col of every kRows-th partial: one accumulator, coalesced loads.
+  constexpr int kRows = kBlock / kSums;
+  __shared__ double rsum[kRows][kSums];
+  if (threadIdx.x < kRows * kSums) {
+    const int col = threadIdx.x % kSums, row = threadIdx.x / kSums;
+    double v = 0.0;
+    for (std::uint32_t b = first_block + row; b < first_block + nb; b += kRows)
+      v += __ldcg(partials + std::size_t(b) * kSums + col);  // L2, never a stale L1 line
+    rsum[row][col] = v;
+  }
+  __syncthreads();
+  if (threadIdx.x < kSums) {
+    double v = 0.0;
+    for (int r = 0; r < kRows; ++r) v += rsum[r][threadIdx.x];
+    sums[std::size_t(s) * kSums + threadIdx.x] = v;
+  }
+  if (threadIdx.x == 0) tickets[s] = 0;
+}
+
+template <int G>
+void launchCorrespond(const DeviceGraphView& g, const float4* pts, const std::uint32_t* point_source, std::size_t n,
+                      const SourceState* states, double max_dist2, std::uint32_t* hints, float* corr_d2,
+                      cudaStream_t stream) {
+  const auto blocks = unsigned((n * G + kBlock - 1) / kBlock);
+  correspondKernel<G><<<blocks, kBlock, 0, stream>>>(g, pts, point_source, std::uint32_t(n), states, max_dist2, hints,
+                                                     corr_d2);
+}
+
+/// The step of every source still running, one thread each. Kept out of the walk kernel: the 4x4
+/// Jacobi in double needs ~100 registers, which fused into the walk cut its occupancy to one block per
+/// multiprocessor and made an iteration 3-5x slower (measured, docs/gpu.md).
+__global__ void solveKernel(const double* __restrict__ sums, std::uint32_t ns, SourceState* __restrict__ states,
+                            SolveParams prm, unsigned* done_count, volatile unsigned* done_host) {
+  const std::uint32_t s = blockIdx.x * blockDim.x + threadIdx.x;
+  if (s >= ns || states[s].done) return;
+  double acc[kSums];
+  for (int k = 0; k < kSums; ++k) acc[k] = sums[std::size_t(s) * kSums + k];
+  solveStep(states[s], acc, prm, done_count, done_host);
+}
+
+/// A source with no points has no blocks: its sums are zero (no correspondences).
+__global__ void emptySourcesKernel(const std::uint32_t* __restrict__ meta, std::uint32_t ns, double* __restrict__ sums) {
+  const std::uint32_t s = blockIdx.x * blockDim.x + threadIdx.x;
+  if (s >= ns || meta[4 * s + 3] != 0) return;
+  for (int k = 0; k < kSums; ++k) sums[std::size_t(s) * kSums + k] = 0.0;
+}
+
+}  // namespace
+
+const char* toString(ConvergenceState s) {
+  switch (s) {
+    case ConvergenceState::NotConverged: return "not converged";
+    case ConvergenceState::Iterations: return "iterations";
+    case ConvergenceState::Transform: return "transform";
+    case ConvergenceState::AbsMse: return "absolute MSE";
+    case ConvergenceState::RelMse: return "relative MSE";
+    case ConvergenceState::NoCorrespondences: return "no correspondences";
+    case ConvergenceState::FailureAfterMaxIterations: return "failure after max iterations";
+  }
+  return "unknown";
+}
+
+IterativeClosestPoint::IterativeClosestPoint(DelaunayWalk::ConstPtr target) : target_(std::move(target)) {
+  if (!target_) throw dw::Error("pcl::gpu::IterativeClosestPoint: null target");
+  checkCuda(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
+  for (auto& e : events_) checkCuda(cudaEventCreateWithFlags(&e, cudaEventDisableTiming), "cudaEventCreate");
+  void* p = nullptr;
+  checkCuda(cudaHostAlloc(&p, sizeof(unsigned), cudaHostAllocMapped), "cudaHostAlloc");
+  done_host_ = static_cast<unsigned*>(p);
+  *done_host_ = 0;
+  checkCuda(cudaHostGetDevicePointer(reinterpret_cast<void**>(&done_host_dev_), p, 0), "cudaHostGetDevicePointer");
+  done_count_.create(1);
+}
+
+IterativeClosestPoint::~IterativeClosestPoint() {
+  if (stream_) cudaStreamSynchronize(stream_);
+  if (done_host_) cudaFreeHost(done_host_);
+  for (auto& e : events_)
+    if (e) cudaEventDestroy(e);
+  if (stream_) cudaStreamDestroy(stream_);
+}
+
+void IterativeClosestPoint::setParameters(const IcpParameters& p) {
+  if (!(p.max_correspondence_distance >= 0.0))
+    throw dw::Error("pcl::gpu::IterativeClosestPoint: max_correspondence_distance must be >= 0");
+  if (std::isnan(p.transformation_epsilon) || std::isnan(p.transformation_rotation_epsilon) ||
+      std::isnan(p.euclidean_fitness_epsilon) || std::isnan(p.mse_threshold_absolute))
+    throw dw::Error("pcl::gpu::IterativeClosestPoint: NaN threshold");
+  params_ = p;
+}
+
+void IterativeClosestPoint::clearSources() {
+  sources_.clear();
+  host_points_.clear();
+  dirty_ = true;
+}
+
+void IterativeClosestPoint::setInputSource(const dw::PointView& source) {
+  clearSources();
+  addSource(source);
+}
+
+std::size_t IterativeClosestPoint::addSource(const dw::PointView& source) {
+  std::vector<std::array<double, 3>> pts;
+  pts.reserve(source.size);
+  for (std::size_t i = 0; i < source.size; ++i) {
+    const auto p = source[i];
+    if (std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])) pts.push_back(p);
+  }
+  if (host_points_.size() + pts.size() >= kInvalid)
+    throw dw::Error("pcl::gpu::IterativeClosestPoint: sources too large for 32-bit device indices");
+  HostSource hs;
+  hs.begin = host_points_.size();
+  hs.size = pts.size();
+  double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  if (!pts.empty()) {
+    for (int a = 0; a < 3; ++a) lo[a] = hi[a] = pts[0][a];
+    for (const auto& p : pts)
+      for (int a = 0; a < 3; ++a) {
+        hs.centroid[a] += p[a];
+        lo[a] = std::min(lo[a], p[a]);
+        hi[a] = std::max(hi[a], p[a]);
+      }
+    for (int a = 0; a < 3; ++a) hs.centroid[a] /= double(pts.size());
+  }
+  // Morton order: consecutive queries then walk through neighbouring vertices (shared cache lines),
+  // the same reason the graph's vertices are stored in this order.
+  std::vector<std::uint64_t> key(pts.size());
+  const double ext = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-300});
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    std::uint32_t c[3];
+    for (int a = 0; a < 3; ++a) c[a] = std::uint32_t(std::min(1048575.0, (pts[i][a] - lo[a]) / ext * 1048576.0));
+    key[i] = dw::mortonKey(c[0], c[1], c[2]);
+  }
+  std::vector<std::size_t> order(pts.size());
+  std::iota(order.begin(), order.end(), std::size_t(0));
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return key[a] < key[b]; });
+  for (std::size_t i : order)
+    host_points_.push_back(make_float4(float(pts[i][0] - hs.centroid[0]), float(pts[i][1] - hs.centroid[1]),
+                                       float(pts[i][2] - hs.centroid[2]), 0.f));
+  sources_.push_back(hs);
+  dirty_ = true;
+  return sources_.size() - 1;
+}
+
+void IterativeClosestPoint::uploadLayout() {
+  // Blocks per source: enough to fill the GPU once (every resident block walks batches of points in
+  // turn), not one per batch, so that the last block sums few partials.
+  int per_sm = 0, sms = 0, dev = 0;
+  checkCuda(cudaGetDevice(&dev), "cudaGetDevice");
+  checkCuda(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev), "cudaDeviceGetAttribute");
+  checkCuda(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, accumulateKernel, kBlock, 0), "occupancy");
+  const std::size_t cap = std::size_t(std::max(1, per_sm * sms));
+  std::vector<std::uint32_t> block_source, meta, point_source;
+  for (std::size_t s = 0; s < sources_.size(); ++s) {
+    const std::size_t batches = (sources_[s].size + kBlock - 1) / kBlock;
+    const auto nb = std::uint32_t(std::min(batches, cap));
+    meta.push_back(std::uint32_t(sources_[s].begin));
+    meta.push_back(std::uint32_t(sources_[s].size));
+    meta.push_back(std::uint32_t(block_source.size()));
+    meta.push_back(nb);
+    block_source.insert(block_source.end(), nb, std::uint32_t(s));
+    point_source.insert(point_source.end(), sources_[s].size, std::uint32_t(s));
+  }
+  num_blocks_ = std::uint32_t(block_source.size());
+  points_.upload(host_points_);
+  hints_.create(host_points_.size());
+  corr_d2_.create(host_points_.size());
+  point_source_.upload(point_source);
+  block_source_.upload(block_source);
+  source_meta_.upload(meta);
+  partials_.create(std::max<std::size_t>(1, block_source.size()) * kSums);
+  states_.create(sources_.size() * sizeof(SourceState));
+  tickets_.create(sources_.size());
+  sums_.create(sources_.size() * kSums);
+  dirty_ = false;
+}
+
+IcpResult IterativeClosestPoint::align(const Matrix4d& guess) {
+  if (sources_.size() != 1)
+    throw dw::Error("pcl::gpu::IterativeClosestPoint::align: needs exactly one source (use alignAll for a batch)");
+  return alignAll({guess}).front();
+}
+
+std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4d>& guesses) {
+  const std::size_t ns = sources_.size();
+  if (ns == 0) throw dw::Error("pcl::gpu::IterativeClosestPoint: no source set");
+  if (!guesses.empty() && guesses.size() != ns)
+    throw dw::Error("pcl::gpu::IterativeClosestPoint::alignAll: one guess per source, or none");
+  if (dirty_) uploadLayout();
+  const auto& o = target_->origin();
+
+  std::vector<SourceState> init(ns);
+  for (std::size_t s = 0; s < ns; ++s) {
+    const Matrix4d g = guesses.empty() ? identityMatrix4d() : guesses[s];
+    for (double x : g)
+      if (!std::isfinite(x)) throw dw::Error("pcl::gpu::IterativeClosestPoint: non-finite initial guess");
+    SourceState& st = init[s];
+    std::memset(&st, 0, sizeof st);
+    const double* c = sources_[s].centroid;
+    for (int a = 0; a < 3; ++a) {
+      for (int b = 0; b < 3; ++b) st.r[3 * a + b] = g[4 * a + b];
+      // target_local = G_R (p + c) + G_t - o
+      st.t[a] = g[4 * a] * c[0] + g[4 * a + 1] * c[1] + g[4 * a + 2] * c[2] + g[4 * a + 3] - o[a];
+      st.c[a] = c[a];
+    }
+    for (int k = 0; k < 9; ++k) st.rf[k] = float(st.r[k]);
+    for (int a = 0; a < 3; ++a) st.rf[9 + a] = float(st.t[a]);
+    st.prev_mse = std::numeric_limits<double>::max();
+    st.state = int(ConvergenceState::NotConverged);
+  }
+  checkCuda(cudaMemcpyAsync(states_.ptr(), init.data(), ns * sizeof(SourceState), cudaMemcpyHostToDevice, stream_),
+            "ICP: upload state");
+  checkCuda(cudaMemsetAsync(hints_.ptr(), 0xff, hints_.size() * sizeof(std::uint32_t), stream_), "ICP: reset hints");
+  checkCuda(cudaMemsetAsync(done_count_.ptr(), 0, sizeof(unsigned), stream_), "ICP: reset");
+  checkCuda(cudaMemsetAsync(tickets_.ptr(), 0, tickets_.size() * sizeof(unsigned), stream_), "ICP: reset tickets");
+
+  SolveParams prm{};
+  prm.max_dist2 = params_.max_correspondence_distance * params_.max_correspondence_distance;
+  prm.rotation_threshold = params_.transformation_rotation_epsilon > 0 ? params_.transformation_rotation_epsilon
+                                                                       : 1.0 - params_.transformation_epsilon;
+  prm.translation_threshold = params_.transformation_epsilon;
+  prm.relative_mse = params_.euclidean_fitness_epsilon;
+  prm.absolute_mse = params_.mse_threshold_absolute;
+  for (int a = 0; a < 3; ++a) prm.origin[a] = o[a];
+  prm.max_iterations = params_.max_iterations;
+  prm.max_similar = params_.max_iterations_similar_transforms;
+  prm.failure_after_max = params_.failure_after_max_iterations ? 1 : 0;
+  prm.min_correspondences = params_.min_number_correspondences;
+
+  auto* state_ptr = reinterpret_cast<SourceState*>(states_.ptr());
+  volatile unsigned* done_flag = done_host_;
+  *done_flag = 0;
+  emptySourcesKernel<<<unsigned((ns + 127) / 128), 128, 0, stream_>>>(source_meta_.ptr(), std::uint32_t(ns),
+                                                                       sums_.ptr());
+  checkCuda(cudaGetLastError(), "ICP: empty sources");
+  // PCL's loop is do-while: at least one iteration runs whatever max_iterations says.
+  const int launches = std::max(1, params_.max_iterations);
+  for (int it = 0; it < launches; ++it) {
+    // Stop launching once every source is done: the solving thread writes the count straight into
+    // mapped host memory, so reading it costs no copy and no synchronisation.
+    if (*done_flag >= ns) break;
+    // Keep at most kAhead iterations queued: the GPU never starves, and after convergence only a few
+    // launches that return at once are left behind. This waits on the host only, never the device.
+    if (it >= kAhead) checkCuda(cudaEventSynchronize(events_[it % kAhead]), "ICP: throttle");
+    if (*done_flag >= ns) break;
+    if (num_blocks_ > 0) {
+      const DeviceGraphView g = target_->view();
+      const std::size_t n = host_points_.size();
+      switch (target_->groupSize()) {
+        case 1: launchCorrespond<1>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2, hints_.ptr(), corr_d2_.ptr(), stream_); break;
+        case 2: launchCorrespond<2>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2, hints_.ptr(), corr_d2_.ptr(), stream_); break;
+        case 8: launchCorrespond<8>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2, hints_.ptr(), corr_d2_.ptr(), stream_); break;
+        case 16: launchCorrespond<16>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2, hints_.ptr(), corr_d2_.ptr(), stream_); break;
+        case 32: launchCorrespond<32>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2, hints_.ptr(), corr_d2_.ptr(), stream_); break;
+        default: launchCorrespond<4>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2, hints_.ptr(), corr_d2_.ptr(), stream_); break;
+      }
+      accumulateKernel<<<num_blocks_, kBlock, 0, stream_>>>(g, points_.ptr(), hints_.ptr(), corr_d2_.ptr(),
+                                                            block_source_.ptr(), source_meta_.ptr(), state_ptr,
+                                                            partials_.ptr(), tickets_.ptr(), sums_.ptr());
+    }
+    solveKernel<<<unsigned((ns + 31) / 32), 32, 0, stream_>>>(sums_.ptr(), std::uint32_t(ns), state_ptr, prm,
+                                                             done_count_.ptr(), done_host_dev_);
+    checkCuda(cudaGetLastError(), "ICP: iteration launch");
+    checkCuda(cudaEventRecord(events_[it % kAhead], stream_), "ICP: event");
+  }
+  std::vector<SourceState> fin(ns);
+  checkCuda(cudaMemcpyAsync(fin.data(), states_.ptr(), ns * sizeof(SourceState), cudaMemcpyDeviceToHost, stream_),
+            "ICP: download state");
+  checkCuda(cudaStreamSynchronize(stream_), "ICP: align");
+
+  std::vector<IcpResult> out(ns);
+  for (std::size_t s = 0; s < ns; ++s) {
+    const SourceState& st = fin[s];
+    IcpResult& r = out[s];
+    for (int a = 0; a < 3; ++a) {
+      for (int b = 0; b < 3; ++b) r.transformation[4 * a + b] = st.r[3 * a + b];
+      // world: target_w = r (p_w - c) + t + o
+      r.transformation[4 * a + 3] =
+          st.t[a] + o[a] - (st.r[3 * a] * st.c[0] + st.r[3 * a + 1] * st.c[1] + st.r[3 * a + 2] * st.c[2]);
+    }
+    r.transformation[12] = r.transformation[13] = r.transformation[14] = 0.0;
+    r.transformation[15] = 1.0;
+    r.iterations = st.iterations;
+    r.state = static_cast<ConvergenceState>(st.state);
+    r.converged = r.state != ConvergenceState::NotConverged && r.state != ConvergenceState::NoCorrespondences &&
+                  r.state != ConvergenceState::FailureAfterMaxIterations;
+    r.mse = st.mse;
+    r.correspondences = st.count;
+  }
+  return out;
+}
+
+}  // namespace gpu
+}  // namespace pcl

@@ -1,0 +1,28 @@
+/// \file insertion_order.h
+/// \brief Biased randomised insertion order (BRIO; Amenta, Choi, Rote 2003) with a Morton sort inside
+/// each round: randomisation bounds the expected cavity work, the spatial sort inside a round keeps
+/// consecutive insertions close so the walking point location takes a few steps.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "pcl_delaunay_walk/core/types.h"
+
+namespace dw {
+namespace builder3d {
+
+/// The BRIO order of points[0..n): a permutation of 0..n-1. Round r holds about n / 2^(R-r) points
+/// (the last round about half of them), each round in Morton order over the bounding box. The
+/// "random" choice is a hash of the index and `seed`, so the order (and thus every perturbation-
+/// independent result, and the speed) is reproducible.
+std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::uint64_t seed = 0);
+
+/// The BRIO order of the subset `ids` of `points` (ids must be < points.size(); the result is a
+/// permutation of them). The rounds' random choice hashes the id, so a point's round does not depend
+/// on which subset it is in.
+std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::vector<index_t> ids,
+                               std::uint64_t seed = 0);
+
+}  // namespace builder3d
+}  // namespace dw

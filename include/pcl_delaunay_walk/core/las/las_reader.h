@@ -1,0 +1,71 @@
+/// \file las_reader.h
+/// \brief Streaming reader of uncompressed LAS 1.0-1.4 files, point formats 0-10 (extra bytes skipped).
+/// Every inconsistency (bad signature, version, sizes, truncation) throws dw::las::LasError with the
+/// file name and what was wrong; a LAZ file gets a message that it must be decompressed first.
+#pragma once
+
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "pcl_delaunay_walk/core/las/las_format.h"
+
+namespace dw {
+namespace las {
+
+class LasReader {
+ public:
+  /// Opens `path` and validates its header against the file size.
+  explicit LasReader(const std::string& path);
+  ~LasReader();
+  LasReader(const LasReader&) = delete;
+  LasReader& operator=(const LasReader&) = delete;
+
+  const LasHeader& header() const { return header_; }
+  /// Number of records still to read.
+  std::uint64_t remaining() const { return header_.point_count - next_; }
+  /// Reads up to `max_records` records into `out` (replacing its content); returns how many (0 at end).
+  std::size_t read(std::vector<LasRecord>& out, std::size_t max_records = 1 << 16);
+  /// Positions the reader at record `index` (for byte-range readers such as the MPI driver).
+  void seek(std::uint64_t index);
+
+ private:
+  std::string path_;
+  std::FILE* file_ = nullptr;
+  LasHeader header_;
+  std::uint64_t next_ = 0;
+  std::vector<unsigned char> buffer_;
+};
+
+/// Parses and validates a header from the first bytes of a file of `file_size` bytes (exposed for
+/// tests and tools). `name` is used in messages.
+LasHeader parseHeader(const unsigned char* bytes, std::size_t available, std::uint64_t file_size,
+                      const std::string& name);
+
+/// A whole file as structure-of-arrays, optionally filtered by class: the compact form the TIN app
+/// and the PCL loader use (12 bytes of coordinates per point plus what is asked for).
+struct LasCloud {
+  LasHeader header;
+  std::vector<std::int32_t> X, Y, Z;
+  std::vector<std::uint8_t> classification;  ///< filled when keep_attributes
+  std::vector<std::uint16_t> intensity;      ///< filled when keep_attributes
+  std::vector<std::uint8_t> return_number;   ///< filled when keep_attributes
+  std::size_t size() const { return X.size(); }
+  double x(std::size_t i) const { return X[i] * header.scale[0] + header.offset[0]; }
+  double y(std::size_t i) const { return Y[i] * header.scale[1] + header.offset[1]; }
+  double z(std::size_t i) const { return Z[i] * header.scale[2] + header.offset[2]; }
+};
+
+struct LasReadOptions {
+  int classification = -1;       ///< keep only this class (e.g. 2 = ground); -1: all
+  bool keep_attributes = false;  ///< also fill classification, intensity, return_number
+  /// Optional progress in [0, 1].
+  void (*progress)(double fraction, void* user) = nullptr;
+  void* progress_user = nullptr;
+};
+
+LasCloud readLasFile(const std::string& path, const LasReadOptions& options = {});
+
+}  // namespace las
+}  // namespace dw

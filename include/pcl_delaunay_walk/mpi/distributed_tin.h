@@ -1,0 +1,78 @@
+/// \file distributed_tin.h
+/// \brief MPI driver of the distributed 2D Delaunay TIN: every rank reads its own byte range of a LAS
+/// file, points are redistributed into equal-count slabs along the long axis (sampled splitters,
+/// MPI_Alltoallv), each rank triangulates its slab and emits what is provably final, and the rest is
+/// merged up a log-depth tree of rank pairs (slab_group.h). The union of all ranks' emitted triangles is
+/// exactly the single-process dw::tin::triangulate result on the same input (docs/mpi.md).
+#pragma once
+
+#include <mpi.h>
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "pcl_delaunay_walk/mpi/slab_group.h"
+
+namespace dw {
+namespace mpi {
+
+struct DistributedTinOptions {
+  std::string input;              ///< LAS file (uncompressed), read by all ranks in byte ranges
+  int classification = -1;        ///< keep only this class; -1: all (global indices count kept points)
+  unsigned num_threads = 1;       ///< threads per rank for the local triangulations
+  std::uint64_t max_records = 0;  ///< use only the first max_records records (0: all); for weak scaling
+  /// Progress lines (called on rank 0 only).
+  std::function<void(const std::string&)> progress;
+  /// Testing hook: throw (fail) or SIGKILL (kill) on rank `fault_rank` at stage `fault_stage`
+  /// ("read", "leaf", "merge", "write"); empty: none.
+  std::string fault_stage;
+  int fault_rank = -1;
+  bool fault_kill = false;
+};
+
+/// World coordinates of the triangulation frame: world = frame * scale + offset per axis.
+struct Frame {
+  double scale[2] = {1, 1}, offset[2] = {0, 0};
+};
+
+struct RankTimings {
+  double read_s = 0, exchange_s = 0, leaf_s = 0, merge_s = 0, write_s = 0;
+};
+
+/// What one rank holds after the run.
+struct RankTin {
+  int rank = 0, size = 1;
+  Frame frame;
+  std::uint64_t total_points = 0;  ///< kept records over all ranks (global indices 0 .. total - 1)
+  std::size_t slab_points = 0;     ///< points this rank triangulated at its leaf
+  Emitted emitted;                 ///< triangles this rank emitted (leaf and the merges it hosted)
+  SlabPoints coords;  ///< frame x, y and world z of every vertex this rank's triangles use (by gid)
+  RankTimings timings;
+  /// Testing hook forwarded from the options.
+  void checkFault(const DistributedTinOptions& o, const char* stage) const;
+};
+
+/// Runs the whole distributed triangulation on `comm` (collective). Throws dw::Error on bad input or an
+/// internal failure on this rank; callers should then MPI_Abort, as the other ranks may be waiting.
+RankTin triangulateDistributed(MPI_Comm comm, const DistributedTinOptions& options);
+
+/// Writes this rank's piece: a binary PLY with world x, y, z (double) and the global index (uint) per
+/// vertex and its emitted triangles (collective only through the caller). Returns the vertex count.
+std::uint64_t writePiece(const std::string& path, const RankTin& tin);
+
+/// Collective: every rank writes `prefix.rank<r>.ply`; after all succeeded, rank 0 writes
+/// `prefix.manifest.json` (last, atomically by rename), the only file that claims completeness.
+void writePiecesAndManifest(MPI_Comm comm, const std::string& prefix, const RankTin& tin,
+                            const DistributedTinOptions& options);
+
+/// Collective: rank 0 gathers every triangle and vertex and writes one PLY (vertices: the points some
+/// triangle uses, in global-index order). Rank 0 needs memory for the whole mesh.
+void writeGathered(MPI_Comm comm, const std::string& path, const RankTin& tin,
+                   const DistributedTinOptions& options);
+
+/// Collective: rank 0 gathers all triangles (gid triples); other ranks get an empty vector.
+std::vector<index_t> gatherTriangles(MPI_Comm comm, const RankTin& tin);
+
+}  // namespace mpi
+}  // namespace dw

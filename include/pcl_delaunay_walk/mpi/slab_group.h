@@ -1,0 +1,75 @@
+/// \file slab_group.h
+/// \brief The exact, MPI-free core of the distributed TIN: a "slab group" is the part of the global
+/// Delaunay triangulation that one rank (or a merged run of adjacent ranks) cannot yet emit, reduced to
+/// the points and fence edges needed to finish it later. Leaves and tree merges both go through
+/// processSlab(); the MPI driver only moves SlabGroups between ranks. docs/mpi.md proves why the
+/// emitted triangles of all levels are exactly DT(all points), each once.
+///
+/// Notation. Points carry a global index (gid, the symbolic-perturbation rank) and lie in slabs
+/// [lo, hi) along one axis u. A triangle is "sure" in a slab when its closed circumdisk lies strictly
+/// inside lo < u < hi (checked in floating point with a safe margin, never optimistically): no point
+/// outside the slab can then be in its disk, so it is a triangle of the global triangulation.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "pcl_delaunay_walk/core/types.h"
+
+namespace dw {
+namespace mpi {
+
+/// Points as structure of arrays, sorted by strictly increasing gid. x, y: the triangulation frame
+/// (exact predicates run on them); z travels along for the output only.
+struct SlabPoints {
+  std::vector<index_t> gid;
+  std::vector<double> x, y, z;
+
+  std::size_t size() const { return gid.size(); }
+  void reserve(std::size_t n);
+  void push(index_t g, double px, double py, double pz);
+};
+
+/// What a slab still owes: the unsure region's vertices plus every hull vertex ("band" points), and the
+/// fences: directed edges (a, b) (gids) with an emitted triangle on their left and the unsure region or
+/// the outside of the slab's hull on their right.
+struct SlabGroup {
+  double lo = -std::numeric_limits<double>::infinity();  ///< slab [lo, hi) along `axis`
+  double hi = std::numeric_limits<double>::infinity();
+  int axis = 0;  ///< 0: u = x, 1: u = y
+  SlabPoints band;
+  std::vector<std::uint64_t> fences;  ///< (a << 32) | b
+
+  /// Serialised form for MPI (plain bytes, same-architecture ranks).
+  std::vector<unsigned char> serialize() const;
+  static SlabGroup deserialize(const unsigned char* bytes, std::size_t size);
+};
+
+/// Triangles a slab emitted, as gid triples (counter-clockwise in x, y).
+struct Emitted {
+  std::vector<index_t> triangles;
+  /// (duplicate gid, representative gid) for points that collapsed onto an earlier gid (leaves only).
+  std::vector<std::pair<index_t, index_t>> duplicates;
+  std::size_t band_points = 0;  ///< points triangulated at this step
+};
+
+struct SlabOptions {
+  unsigned num_threads = 1;  ///< threads of the local dw::tin::triangulate
+};
+
+/// Leaf step: triangulates all `points` (every one inside [lo, hi) along `axis`; finite), emits the
+/// triangles that are sure in the slab and returns the group that carries the rest. Throws dw::Error
+/// on points outside the slab, unsorted gids, or any internal inconsistency.
+SlabGroup processLeaf(SlabPoints&& points, int axis, double lo, double hi, Emitted& out,
+                      const SlabOptions& options = {});
+
+/// Merge step: `left` and `right` are groups of adjacent slabs (left.hi == right.lo). Triangulates the
+/// union of their bands, discards (by flooding from the fences) what the already emitted triangles
+/// cover, emits what is sure in the merged slab and returns the merged group. With lo = -inf and
+/// hi = +inf (the root), everything left is emitted.
+SlabGroup mergeSlabs(SlabGroup&& left, SlabGroup&& right, Emitted& out, const SlabOptions& options = {});
+
+}  // namespace mpi
+}  // namespace dw

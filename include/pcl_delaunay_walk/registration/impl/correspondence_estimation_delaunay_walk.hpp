@@ -1,0 +1,174 @@
+/// \file impl/correspondence_estimation_delaunay_walk.hpp
+/// \brief Template definitions of pcl::registration::CorrespondenceEstimationDelaunayWalk.
+#pragma once
+
+#include <chrono>
+#include <cmath>
+
+#include <pcl/common/copy_point.h>
+
+#include "pcl_delaunay_walk/registration/correspondence_estimation_delaunay_walk.h"
+#include "pcl_delaunay_walk/registration/parallel_for.h"
+
+namespace pcl {
+namespace registration {
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::CorrespondenceEstimationDelaunayWalk()
+: walk_(new WalkSearch)
+{
+  corr_name_ = "CorrespondenceEstimationDelaunayWalk";
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::CorrespondenceEstimationDelaunayWalk(
+    const WalkSearchPtr& walk)
+: walk_(walk)
+{
+  if (!walk_) throw dw::Error("CorrespondenceEstimationDelaunayWalk: null walk search");
+  corr_name_ = "CorrespondenceEstimationDelaunayWalk";
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::setSearchMethodWalk(const WalkSearchPtr& walk)
+{
+  if (!walk) throw dw::Error("CorrespondenceEstimationDelaunayWalk::setSearchMethodWalk: null walk search");
+  walk_ = walk;
+  target_cloud_updated_ = true;
+  invalidateCache();
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+bool
+CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::initComputeWalk()
+{
+  if (!target_) {
+    PCL_ERROR("[pcl::registration::%s::compute] No input target dataset was given!\n", corr_name_.c_str());
+    return false;
+  }
+  // Registration hands us its target tree every align(); if it is a walk tree, use its graph.
+  bool tree_owns_target = false;
+  if (auto walk_tree = std::dynamic_pointer_cast<pcl::search::KdTreeDelaunayWalk<PointTarget>>(tree_)) {
+    if (walk_tree->getDelaunayWalk() != walk_) walk_ = walk_tree->getDelaunayWalk();
+    // With force_no_recompute the user has set the tree's cloud and asked us to leave it alone.
+    tree_owns_target = force_no_recompute_ && walk_->getWalkQuery();
+  }
+  if (target_cloud_updated_ && !tree_owns_target) {
+    // Content-checked: an unchanged target keeps its graph, so this is one comparison per align().
+    walk_->setInputCloud(target_, target_indices_);
+  }
+  target_cloud_updated_ = false;
+  if (!walk_->getWalkQuery()) walk_->setInputCloud(target_, target_indices_);
+  return PCLBase<PointSource>::initCompute();
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::searchAll(double max_distance,
+                                                                                 bool reciprocal,
+                                                                                 pcl::Correspondences& correspondences)
+{
+  const auto t0 = std::chrono::steady_clock::now();
+  const pcl::search::detail::WalkQuery& wq = *walk_->getWalkQuery();
+  const std::size_t n = indices_->size();
+  if (hint_source_ != input_.get() || hints_.size() != input_->size() || hint_graph_ != wq.id()) {
+    hints_.assign(input_->size(), dw::kInvalidIndex);
+    hint_source_ = input_.get();
+    hint_graph_ = wq.id();
+  }
+  const bool use_hints = strategy_ == dw::StartStrategy::Pnn || strategy_ == dw::StartStrategy::PnnOptimized;
+  const double max_dist_sqr = max_distance * max_distance;
+
+  // Each slot is written by exactly one worker; the compaction below is sequential, so the output
+  // does not depend on how the range was split.
+  std::vector<pcl::Correspondence> found(n);
+  std::vector<unsigned char> keep(n, 0);
+  std::vector<dw::index_t> new_hints(n, dw::kInvalidIndex);
+  const unsigned workers = detail::workerCount(n, nr_threads_);
+  std::vector<DelaunayWalkIterationStats> partial(workers);
+
+  detail::parallelFor(n, workers, [&](std::size_t begin, std::size_t end, unsigned w) {
+    DelaunayWalkIterationStats& st = partial[w];
+    pcl::Indices index_r(1);
+    std::vector<float> dist_r(1);
+    PointSource as_source;
+    constexpr std::size_t kAhead = 6;  // queries between a start-vertex prefetch and its walk
+    for (std::size_t i = begin; i < end; ++i) {
+      if (use_hints && i + kAhead < end) wq.neighbourSearch().prefetchStart(hints_[(*indices_)[i + kAhead]]);
+      const auto idx = (*indices_)[i];
+      const PointSource& p = (*input_)[idx];
+      const float q[3] = {p.x, p.y, p.z};
+      if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !std::isfinite(q[2])) continue;
+      pcl::search::detail::WalkNeighbour nb;
+      pcl::search::detail::WalkQueryStats qs;
+      const dw::index_t hint = use_hints ? hints_[idx] : dw::kInvalidIndex;
+      if (!wq.nearest(q, strategy_, hint, nb, &qs)) continue;
+      ++st.queries;
+      st.walk_steps += qs.walk_steps;
+      st.widened += qs.widened ? 1 : 0;
+      new_hints[i] = qs.nn_vertex;
+      if (nb.sqr_distance > max_dist_sqr) continue;  // as the stock estimator: float vs double
+      if (reciprocal) {
+        copyPoint((*target_)[nb.index], as_source);
+        tree_reciprocal_->nearestKSearch(as_source, 1, index_r, dist_r);
+        if (dist_r[0] > max_dist_sqr || idx != index_r[0]) continue;
+      }
+      found[i] = pcl::Correspondence(idx, nb.index, nb.sqr_distance);
+      keep[i] = 1;
+    }
+  });
+
+  correspondences.clear();
+  correspondences.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (keep[i]) correspondences.push_back(found[i]);
+    // Last write wins for a repeated source index, the same for any thread count.
+    if (new_hints[i] != dw::kInvalidIndex) hints_[(*indices_)[i]] = new_hints[i];
+  }
+  DelaunayWalkIterationStats total;
+  for (const auto& s : partial) {
+    total.queries += s.queries;
+    total.walk_steps += s.walk_steps;
+    total.widened += s.widened;
+  }
+  total.correspondences = correspondences.size();
+  total.nn_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  stats_.push_back(total);
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::determineCorrespondences(
+    pcl::Correspondences& correspondences, double max_distance)
+{
+  if (!initComputeWalk()) return;
+  searchAll(max_distance, false, correspondences);
+  this->deinitCompute();
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::determineReciprocalCorrespondences(
+    pcl::Correspondences& correspondences, double max_distance)
+{
+  if (!initComputeWalk()) return;
+  // The backward search runs over the moving source, rebuilt every iteration: a k-d tree build is
+  // ~50x cheaper than a Delaunay graph there, so it stays PCL's KdTree, as in the stock estimator.
+  if (!this->initComputeReciprocal()) return;
+  searchAll(max_distance, true, correspondences);
+  this->deinitCompute();
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+typename CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::Base::Ptr
+CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::clone() const
+{
+  Ptr copy(new CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>(*this));
+  // A separate walk object (same immutable graph), so re-targeting the copy leaves this one alone.
+  copy->walk_.reset(new WalkSearch(*walk_));
+  return copy;
+}
+
+} // namespace registration
+} // namespace pcl

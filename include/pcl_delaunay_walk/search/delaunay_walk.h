@@ -1,0 +1,259 @@
+/// \file delaunay_walk.h
+/// \brief pcl::search::DelaunayWalk: an exact pcl::search::Search backend that answers nearest,
+/// k-nearest and radius queries by walking the Delaunay graph of the input cloud (Anderson et al.
+/// 2022), with results identical to pcl::search::KdTree up to exact ties.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <pcl/point_cloud.h>
+#include <pcl/search/search.h>
+
+#include "pcl_delaunay_walk/core/graph_builder.h"
+#include "pcl_delaunay_walk/core/start_strategy.h"
+#include "pcl_delaunay_walk/search/walk_query.h"
+
+namespace pcl {
+namespace search {
+
+/** \brief Exact neighbour search by the Delaunay walk.
+ *
+ * A drop-in for pcl::search::KdTree in any PCL algorithm that takes a Search::Ptr
+ * (NormalEstimation, NormalEstimationOMP, EuclideanClusterExtraction, ...). Results follow
+ * KdTreeFLANN's conventions: indices into the original cloud (also when an indices subset is given),
+ * squared distances computed from the cloud's float coordinates, ascending order (ties by ascending
+ * index), k clamped to the number of finite points, radius membership strict (d^2 < r^2), max_nn = 0
+ * meaning no limit. NaN points of the cloud are never returned; a NaN query, k <= 0, or a negative
+ * radius return 0 neighbours. Queries are const and safe from many threads at once.
+ *
+ * The graph is rebuilt only when the cloud's coordinates (or the indices) change: setting the same
+ * content again, as pcl::Registration does on every align(), costs one comparison. A graph can also be
+ * adopted ready-made (setInputCloudAndGraph) or loaded from a file (loadGraph); it is then checked
+ * against the cloud point by point. Only x, y, z are used (no PointRepresentation).
+ */
+template <typename PointT>
+class DelaunayWalk : public Search<PointT> {
+ public:
+  using PointCloud = typename Search<PointT>::PointCloud;
+  using PointCloudConstPtr = typename Search<PointT>::PointCloudConstPtr;
+  using Ptr = shared_ptr<DelaunayWalk<PointT>>;
+  using ConstPtr = shared_ptr<const DelaunayWalk<PointT>>;
+
+  using Search<PointT>::indices_;
+  using Search<PointT>::input_;
+  using Search<PointT>::getIndices;
+  using Search<PointT>::getInputCloud;
+  using Search<PointT>::nearestKSearch;
+  using Search<PointT>::radiusSearch;
+  using Search<PointT>::sorted_results_;
+
+  /** \brief Constructor.
+   * \param[in] sorted kept for interface compatibility: results are always sorted (exactness needs it)
+   */
+  explicit DelaunayWalk(bool sorted = true);
+  ~DelaunayWalk() override = default;
+
+  /** \brief Set the reference cloud; builds its Delaunay graph unless the content is unchanged or a
+   * graph given with setGraph() matches it.
+   * \param[in] cloud the reference cloud (must not be null)
+   * \param[in] indices optional subset; results are still indices into \a cloud
+   * \throws dw::Error on a null cloud, out-of-range indices, or a pending graph that does not match
+   */
+  void
+  setInputCloud(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices = IndicesConstPtr()) override;
+
+  /** \brief Set the reference cloud together with a prebuilt graph of it (no build).
+   * \param[in] cloud the reference cloud
+   * \param[in] graph a graph built from exactly \a cloud (or its \a indices subset, in that order)
+   * \param[in] indices optional subset
+   * \throws dw::Error if the graph is invalid or was built from other points
+   */
+  void
+  setInputCloudAndGraph(const PointCloudConstPtr& cloud, dw::DelaunayGraph::ConstPtr graph,
+                        const IndicesConstPtr& indices = IndicesConstPtr());
+
+  /** \brief Offer a prebuilt graph for the next setInputCloud(): it is adopted if it matches that
+   * cloud and an error is raised if not. For localisation against a fixed map.
+   * \param[in] graph the graph (null withdraws a pending one)
+   */
+  void
+  setGraph(dw::DelaunayGraph::ConstPtr graph);
+
+  /** \brief Load a graph file (see dw::saveGraph) and offer it like setGraph().
+   * \param[in] path the graph file
+   * \throws dw::GraphFileError on a corrupt, truncated or foreign file
+   */
+  void
+  loadGraph(const std::string& path);
+
+  /** \brief Save the current graph to a file.
+   * \param[in] path output file
+   * \throws dw::Error when there is no graph yet or on I/O failure
+   */
+  void
+  saveGraph(const std::string& path) const;
+
+  /** \brief The current graph (null before setInputCloud). */
+  dw::DelaunayGraph::ConstPtr
+  getGraph() const;
+
+  /** \brief The exact query engine over the current graph (null before setInputCloud). */
+  detail::WalkQuery::ConstPtr
+  getWalkQuery() const
+  {
+    return query_;
+  }
+
+  /** \brief Set where walks start: Zero, KdAnn (default), Pnn or PnnOptimized. With Pnn the hint is
+   * the previous query's nearest vertex on the same thread (good for coherent query sequences); the
+   * index forms of the queries always start at the query point's own vertex.
+   * \param[in] strategy the start strategy
+   */
+  void
+  setStartStrategy(dw::StartStrategy strategy)
+  {
+    strategy_ = strategy;
+  }
+
+  /** \brief Get the start strategy. */
+  dw::StartStrategy
+  getStartStrategy() const
+  {
+    return strategy_;
+  }
+
+  /** \brief Set the options used when a graph has to be built (builder, threads, progress).
+   * \param[in] options the build options
+   */
+  void
+  setBuildOptions(const dw::BuildOptions& options)
+  {
+    build_options_ = options;
+  }
+
+  /** \brief Get the build options. */
+  const dw::BuildOptions&
+  getBuildOptions() const
+  {
+    return build_options_;
+  }
+
+  /** \brief Seconds spent building (or adopting) the graph in the last setInputCloud; 0 if reused. */
+  double
+  getLastBuildSeconds() const
+  {
+    return last_build_seconds_;
+  }
+
+  /** \brief Number of graphs built (not reused) by this object so far. */
+  std::size_t
+  getNumberOfBuilds() const
+  {
+    return num_builds_;
+  }
+
+  /** \brief Search for the k nearest neighbours of a point.
+   * \param[in] point the query point
+   * \param[in] k the number of neighbours (clamped to the number of finite points)
+   * \param[out] k_indices indices into the input cloud, nearest first
+   * \param[out] k_sqr_distances squared distances, ascending
+   * \return the number of neighbours found
+   */
+  int
+  nearestKSearch(const PointT& point, int k, Indices& k_indices, std::vector<float>& k_sqr_distances) const override;
+
+  /** \brief k nearest neighbours of the point at \a index of the input (of the indices, if given);
+   * the walk starts at that point's own vertex.
+   * \param[in] index position in the input cloud, or in the indices when a subset was given
+   * \param[in] k the number of neighbours
+   * \param[out] k_indices indices into the input cloud
+   * \param[out] k_sqr_distances squared distances
+   * \return the number of neighbours found (0 for an out-of-range index)
+   */
+  int
+  nearestKSearch(index_t index, int k, Indices& k_indices, std::vector<float>& k_sqr_distances) const override;
+
+  /** \brief k nearest neighbours of cloud[index].
+   * \param[in] cloud the cloud holding the query point
+   * \param[in] index its index in \a cloud
+   * \param[in] k the number of neighbours
+   * \param[out] k_indices indices into the input cloud
+   * \param[out] k_sqr_distances squared distances
+   * \return the number of neighbours found
+   */
+  int
+  nearestKSearch(const PointCloud& cloud, index_t index, int k, Indices& k_indices,
+                 std::vector<float>& k_sqr_distances) const override;
+
+  /** \brief All neighbours with squared distance < radius^2.
+   * \param[in] point the query point
+   * \param[in] radius the search radius
+   * \param[out] k_indices indices into the input cloud, nearest first
+   * \param[out] k_sqr_distances squared distances, ascending
+   * \param[in] max_nn if > 0, return only the max_nn nearest
+   * \return the number of neighbours found
+   */
+  int
+  radiusSearch(const PointT& point, double radius, Indices& k_indices, std::vector<float>& k_sqr_distances,
+               unsigned int max_nn = 0) const override;
+
+  /** \brief Radius search around the point at \a index (see the index form of nearestKSearch).
+   * \param[in] index position in the input cloud, or in the indices when a subset was given
+   * \param[in] radius the search radius
+   * \param[out] k_indices indices into the input cloud
+   * \param[out] k_sqr_distances squared distances
+   * \param[in] max_nn if > 0, return only the max_nn nearest
+   * \return the number of neighbours found
+   */
+  int
+  radiusSearch(index_t index, double radius, Indices& k_indices, std::vector<float>& k_sqr_distances,
+               unsigned int max_nn = 0) const override;
+
+  /** \brief Radius search around cloud[index].
+   * \param[in] cloud the cloud holding the query point
+   * \param[in] index its index in \a cloud
+   * \param[in] radius the search radius
+   * \param[out] k_indices indices into the input cloud
+   * \param[out] k_sqr_distances squared distances
+   * \param[in] max_nn if > 0, return only the max_nn nearest
+   * \return the number of neighbours found
+   */
+  int
+  radiusSearch(const PointCloud& cloud, index_t index, double radius, Indices& k_indices,
+               std::vector<float>& k_sqr_distances, unsigned int max_nn = 0) const override;
+
+ protected:
+  /** \brief Query with an explicit start vertex hint (kInvalidIndex: per strategy). */
+  int
+  knnFrom(const float q[3], int k, dw::StartStrategy strategy, dw::index_t hint, Indices& k_indices,
+          std::vector<float>& k_sqr_distances) const;
+  int
+  radiusFrom(const float q[3], double radius, unsigned int max_nn, dw::StartStrategy strategy, dw::index_t hint,
+             Indices& k_indices, std::vector<float>& k_sqr_distances) const;
+  /** \brief Graph input of cloud index \a index of the input cloud, or -1. */
+  std::int64_t
+  inputOfCloudIndex(index_t index) const;
+  /** \brief Strategy and hint for a point query (the thread's previous answer for Pnn). */
+  dw::index_t
+  sequenceHint() const;
+  void
+  rememberHint(dw::index_t vertex) const;
+  const detail::WalkQuery&
+  query() const;
+
+  detail::WalkQuery::ConstPtr query_;
+  dw::DelaunayGraph::ConstPtr pending_graph_;
+  std::vector<std::int32_t> cloud_to_input_;  ///< only with an indices subset; -1 = not in it
+  dw::StartStrategy strategy_ = dw::StartStrategy::KdAnn;
+  dw::BuildOptions build_options_;
+  double last_build_seconds_ = 0.0;
+  std::size_t num_builds_ = 0;
+};
+
+} // namespace search
+} // namespace pcl
+
+#ifdef PCL_NO_PRECOMPILE
+#include "pcl_delaunay_walk/search/impl/delaunay_walk.hpp"
+#endif

@@ -1,0 +1,343 @@
+#!/usr/bin/python3
+"""Figures and tables from dw_bench's CSV files (scripts/benchmark.sh runs it).
+
+Figures mirror the Delaunay-walk paper's (Anderson et al. 2022): walk-count histograms per start
+strategy (Figs. 8-9), ICP runtime per data set and method (Fig. 11), per-iteration runtime over the
+iterations (Fig. 14) and the ICP step breakdown (Figs. 1-2); plus per-query NN time and thread scaling.
+Tables (markdown, for docs/benchmarks.md) go to <results>/tables.md.
+
+usage: plot_benchmarks.py RESULTS_DIR [--figures docs/figures]
+"""
+import argparse
+import csv
+import math
+import os
+import statistics
+import sys
+from collections import defaultdict
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+METHOD_ORDER = ["brute-force", "pcl-kdtree", "nanoflann", "pcl-octree", "walk-zero", "walk-kd-ann",
+                "walk-pnn", "walk-pnn-prefetch", "walk-pnn-optimized", "walk-pnn-optimized-prefetch",
+                "dw-estimator"]
+WALKS = ["walk-zero", "walk-kd-ann", "walk-pnn", "walk-pnn-optimized"]
+# The seed's mean walk counts (Anderson et al. 2022, §5), quoted for comparison.
+SEED_WALKS = {"walk-zero": "~26 (dragon 62k)", "walk-kd-ann": "~5 (dragon 62k)",
+              "walk-pnn": "1.4-2.1 (teapot 1.39 -> 1.56 when doubled)", "walk-pnn-optimized": "~1.4-2"}
+
+
+def read(path):
+    if not os.path.exists(path):
+        return []
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def order(methods):
+    return sorted(methods, key=lambda m: METHOD_ORDER.index(m) if m in METHOD_ORDER else 99)
+
+
+def dataset_order(rows):
+    sizes = {}
+    for r in rows:
+        if "points" in r:
+            sizes[r["dataset"]] = int(r["points"])
+    return sorted(sizes, key=lambda d: sizes[d]) if sizes else sorted({r["dataset"] for r in rows})
+
+
+def fmt_time(s):
+    if s >= 1:
+        return f"{s:.2f} s"
+    if s >= 1e-3:
+        return f"{s * 1e3:.1f} ms"
+    return f"{s * 1e6:.0f} µs"
+
+
+def table(header, rows):
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+def build_section(res, figs, md):
+    rows = read(os.path.join(res, "build.csv"))
+    if not rows:
+        return
+    data = dataset_order(rows)
+    by = {(r["dataset"], r["method"]): float(r["seconds"]) for r in rows}
+    methods = [m for m in ["brute-force", "pcl-kdtree", "nanoflann", "pcl-octree", "walk-graph-qhull",
+                           "walk-graph-incremental"]
+               if any(k[1] == m for k in by)]
+    md.append("### Build time (CPU time, one thread)\n")
+    ratio = [("walk-graph-qhull", "Qhull graph / nanoflann"), ("walk-graph-incremental", "incremental graph / nanoflann")]
+    md.append(table(["data set"] + methods + [r[1] for r in ratio if r[0] in methods],
+                    [[d] + [fmt_time(by[(d, m)]) if (d, m) in by else "–" for m in methods] +
+                     [f"{by[(d, g)] / by[(d, 'nanoflann')]:.0f}×" if (d, g) in by and (d, "nanoflann") in by else "–"
+                      for g, _ in ratio if g in methods] for d in data]))
+    md.append("")
+
+
+def nn_section(res, figs, md):
+    rows = read(os.path.join(res, "nn.csv"))
+    if not rows:
+        return
+    data = dataset_order(rows)
+    one = {(r["dataset"], r["method"]): r for r in rows if r["threads"] == "1"}
+    methods = order({r["method"] for r in rows})
+    key = "cpu_ns_per_query" if "cpu_ns_per_query" in rows[0] else "ns_per_query"
+    md.append("### Per-query NN time on ICP-like query sequences (one thread, %s ns/query)\n"
+              % ("CPU" if key.startswith("cpu") else "wall-clock"))
+    hdr = ["data set", "queries"] + methods + ["PNN vs nanoflann", "PNN vs pcl-kdtree", "wrong answers"]
+    body = []
+    for d in data:
+        r0 = next(r for r in rows if r["dataset"] == d)
+        line = [f"{d} ({int(r0['points']):,} pts)", f"{int(r0['queries']):,} ({r0['icp_iterations']} it)"]
+        for m in methods:
+            line.append(f"{float(one[(d, m)][key]):.0f}" if (d, m) in one else "–")
+        pnn = one.get((d, "walk-pnn"))
+        for peer in ["nanoflann", "pcl-kdtree"]:
+            p = one.get((d, peer))
+            line.append(f"{float(p[key]) / float(pnn[key]):.1f}×" if p and pnn else "–")
+        line.append(str(sum(int(r["wrong"]) for r in rows if r["dataset"] == d and r["threads"] == "1")))
+        body.append(line)
+    md.append(table(hdr, body))
+    md.append("")
+    # Thread scaling.
+    threads = sorted({int(r["threads"]) for r in rows})
+    if len(threads) > 1:
+        md.append("### Thread scaling (wall-clock ns/query; speed-up over one thread)\n")
+        body = []
+        for d in data:
+            for m in methods:
+                cells = {int(r["threads"]): float(r["ns_per_query"]) for r in rows
+                         if r["dataset"] == d and r["method"] == m}
+                if 1 not in cells:
+                    continue
+                body.append([d, m] + [f"{cells[t]:.0f} ({cells[1] / cells[t]:.2f}×)" if t in cells else "–"
+                                      for t in threads] + ["not measured here"])
+        md.append(table(["data set", "method"] + [f"{t} thread{'s' if t > 1 else ''}" for t in threads] +
+                        ["16 threads"], body))
+        md.append("")
+    # Walk statistics next to the seed's.
+    md.append("### Walk counts (moves per query; the seed counts visited vertices = moves + 1)\n")
+    body = []
+    for d in data:
+        for m in WALKS:
+            r = one.get((d, m))
+            if r:
+                body.append([d, m, f"{float(r['mean_steps']):.2f}", f"{float(r['mean_visited']):.2f}",
+                             r["p99_steps"].split(".")[0], r["max_steps"].split(".")[0], SEED_WALKS[m]])
+    md.append(table(["data set", "start", "mean moves", "mean visited", "p99", "max", "seed (visited)"], body))
+    md.append("")
+    # Figure: per-query time per data set and method.
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    width = 0.8 / max(1, len(methods))
+    for k, m in enumerate(methods):
+        xs, ys = [], []
+        for i, d in enumerate(data):
+            if (d, m) in one:
+                xs.append(i + k * width)
+                ys.append(float(one[(d, m)][key]))
+        ax.bar(xs, ys, width, label=m)
+    ax.set_xticks([i + 0.4 - width / 2 for i in range(len(data))])
+    ax.set_xticklabels(data, fontsize=8)
+    ax.set_yscale("log")
+    ax.set_ylabel("%s ns per query (1 thread)" % ("CPU" if key.startswith("cpu") else "wall"))
+    ax.set_title("Exact NN on ICP-like query sequences")
+    ax.legend(fontsize=7, ncol=3)
+    fig.tight_layout()
+    fig.savefig(os.path.join(figs, "nn_per_query.png"), dpi=120)
+    plt.close(fig)
+
+
+def hist_section(res, figs, md):
+    rows = read(os.path.join(res, "walk_hist.csv"))
+    if not rows:
+        return
+    for d in sorted({r["dataset"] for r in rows}):
+        fig, axes = plt.subplots(1, 4, figsize=(14, 3.2), sharey=True)
+        for ax, m in zip(axes, WALKS):
+            h = [(int(r["steps"]), int(r["count"])) for r in rows if r["dataset"] == d and r["method"] == m]
+            if not h:
+                ax.set_visible(False)
+                continue
+            total = sum(c for _, c in h)
+            mean = sum(s * c for s, c in h) / total
+            ax.bar([s for s, _ in h], [c / total for _, c in h], width=1.0)
+            ax.set_yscale("log")
+            ax.set_title(f"{m}: mean {mean:.2f} moves", fontsize=9)
+            ax.set_xlabel("walk moves per query")
+        axes[0].set_ylabel("fraction of queries")
+        fig.suptitle(f"Walk-count histograms, {d} (seed Figs. 8-9)")
+        fig.tight_layout()
+        fig.savefig(os.path.join(figs, f"walk_hist_{d.replace(':', '_')}.png"), dpi=110)
+        plt.close(fig)
+
+
+def icp_section(res, figs, md):
+    rows = read(os.path.join(res, "icp.csv"))
+    if not rows:
+        return
+    data = dataset_order(rows)
+    methods = order({r["method"] for r in rows})
+    for noise in sorted({r["noise"] for r in rows}):
+        sel = [r for r in rows if r["noise"] == noise]
+        med = {}
+        for d in data:
+            for m in methods:
+                t = [float(r.get("cpu_seconds") or r["align_seconds"]) for r in sel
+                     if r["dataset"] == d and r["method"] == m]
+                if t:
+                    it = [int(r["iterations"]) for r in sel if r["dataset"] == d and r["method"] == m]
+                    err = [float(r["rot_err_deg"]) for r in sel if r["dataset"] == d and r["method"] == m]
+                    med[(d, m)] = (statistics.median(t), statistics.median(it), max(err), len(t))
+        label = "noise on the target" if noise == "1" else "no noise"
+        md.append(f"### ICP align() CPU time per data set and method ({label}; median over the rotations, "
+                  "structure prebuilt)\n")
+        body = []
+        for d in data:
+            if not any((d, m) in med for m in methods):
+                continue
+            line = [d]
+            for m in methods:
+                line.append(fmt_time(med[(d, m)][0]) if (d, m) in med else "–")
+            if (d, "pcl-kdtree") in med and (d, "walk-pnn-optimized") in med:
+                line.append(f"{med[(d, 'pcl-kdtree')][0] / med[(d, 'walk-pnn-optimized')][0]:.1f}×")
+            else:
+                line.append("–")
+            its = {med[(d, m)][1] for m in methods if (d, m) in med}
+            line.append("/".join(str(int(i)) for i in sorted(its)))
+            line.append(str(max(med[(d, m)][3] for m in methods if (d, m) in med)))
+            line.append(f"{max(med[(d, m)][2] for m in methods if (d, m) in med):.2g}°")
+            body.append(line)
+        md.append(table(["data set"] + methods + ["kdtree / PNN-opt", "median iterations", "rotations",
+                                                  "max rot. error"], body))
+        md.append("")
+        # Fig. 11: runtime per data set and method.
+        fig, ax = plt.subplots(figsize=(10, 4.5))
+        width = 0.8 / max(1, len(methods))
+        for k, m in enumerate(methods):
+            xs = [i + k * width for i, d in enumerate(data) if (d, m) in med]
+            ys = [med[(d, m)][0] for d in data if (d, m) in med]
+            ax.bar(xs, ys, width, label=m)
+        ax.set_xticks([i + 0.4 - width / 2 for i in range(len(data))])
+        ax.set_xticklabels(data)
+        ax.set_yscale("log")
+        ax.set_ylabel("ICP align() CPU seconds (median)")
+        ax.set_title(f"ICP runtime per data set and method, {label} (seed Fig. 11)")
+        ax.legend(fontsize=7, ncol=3)
+        fig.tight_layout()
+        fig.savefig(os.path.join(figs, f"icp_runtime_noise{noise}.png"), dpi=120)
+        plt.close(fig)
+    # Figs. 1-2: step breakdown on the largest data set, no noise. The step timers are wall-clock; on a
+    # loaded machine each run's parts are scaled by its CPU/wall ratio so that they add up to its CPU
+    # time. Build times come from the build section (CPU) where it ran.
+    builds = {r["method"]: float(r["seconds"]) for r in read(os.path.join(res, "build.csv"))
+              if r["dataset"] == data[-1]}
+    big = data[-1]
+    sel = [r for r in rows if r["dataset"] == big and r["noise"] == rows[0]["noise"]]
+    present = [m for m in methods if any(r["method"] == m for r in sel)]
+    parts = ["build", "nn", "svd", "other"]
+    body = {p: [] for p in parts}
+    for m in present:
+        runs = [r for r in sel if r["method"] == m]
+        scale = [float(r["cpu_seconds"]) / float(r["align_seconds"]) if r.get("cpu_seconds") else 1.0 for r in runs]
+        for p in ["nn", "svd", "other"]:
+            body[p].append(statistics.median(float(r[p + "_seconds"]) * k for r, k in zip(runs, scale)))
+        graph = builds.get("walk-graph-incremental", builds.get("walk-graph-qhull"))
+        b = builds.get(m, graph if (m.startswith("walk-") or m == "dw-estimator") else None)
+        body["build"].append(b if b is not None else statistics.median(float(r["build_seconds"]) for r in runs))
+    fig, ax = plt.subplots(figsize=(9, 4))
+    bottoms = [0.0] * len(present)
+    for p in parts:
+        ax.bar(present, body[p], bottom=bottoms, label=p)
+        bottoms = [b + v for b, v in zip(bottoms, body[p])]
+    ax.set_ylabel("CPU seconds (median over rotations)")
+    ax.set_title(f"ICP step breakdown, {big} (seed Figs. 1-2)")
+    ax.tick_params(axis="x", labelrotation=30, labelsize=8)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(os.path.join(figs, "icp_breakdown.png"), dpi=120)
+    plt.close(fig)
+    md.append(f"### ICP step breakdown, {big} (CPU seconds, median; NN share of the registration time)\n")
+    md.append(table(["method", "build (separate)", "NN", "SVD", "other", "NN share"],
+                    [[m] + [fmt_time(body[p][i]) for p in parts] +
+                     [f"{100 * body['nn'][i] / max(1e-12, body['nn'][i] + body['svd'][i] + body['other'][i]):.0f}%"]
+                     for i, m in enumerate(present)]))
+    md.append("")
+    # Fig. 14: per-iteration runtime on the largest data set (scaled like the breakdown).
+    it_rows = [r for r in read(os.path.join(res, "icp_iter.csv")) if r["dataset"] == big and r["noise"] == rows[0]["noise"]]
+    if it_rows:
+        rot = it_rows[0]["rotation"]
+        scale = {r["method"]: float(r["cpu_seconds"]) / float(r["align_seconds"]) if r.get("cpu_seconds") else 1.0
+                 for r in sel if r["rotation"] == rot}
+        fig, ax = plt.subplots(figsize=(9, 4))
+        for m in order({r["method"] for r in it_rows}):
+            pts = sorted((int(r["iteration"]), float(r["seconds"])) for r in it_rows if r["method"] == m)
+            ax.plot([p[0] for p in pts], [p[1] * 1e3 * scale.get(m, 1.0) for p in pts], marker=".", label=m)
+        ax.set_yscale("log")
+        ax.set_xlabel("ICP iteration")
+        ax.set_ylabel("ms per iteration (CPU-scaled)")
+        ax.set_title(f"Per-iteration runtime, {big}, rotation {rot} (seed Fig. 14)")
+        ax.legend(fontsize=7, ncol=3)
+        fig.tight_layout()
+        fig.savefig(os.path.join(figs, "icp_per_iteration.png"), dpi=120)
+        plt.close(fig)
+
+
+def accept_section(res, figs, md):
+    rows = read(os.path.join(res, "accept.csv"))
+    if not rows:
+        return
+    v = {r["variant"]: r for r in rows}
+    d = rows[0]["dataset"]
+    has_cpu = "cpu_seconds" in rows[0]
+    s = float(v["stock-icp-kdtree"]["seconds"])
+    sc = float(v["stock-icp-kdtree"]["cpu_seconds"]) if has_cpu else None
+    md.append(f"### End-to-end align(), {d}, rotation 10/10/10°, one thread\n")
+    labels = [("stock-icp-kdtree", "stock pcl::IterativeClosestPoint (FLANN KdTree, built inside align())"),
+              ("icp-walk-estimator-excl-build", "same ICP + CorrespondenceEstimationDelaunayWalk, excluding graph build"),
+              ("icp-walk-estimator-incl-build", "same, including the graph build (pcl::search::DelaunayWalk, default builder)")]
+    body = []
+    for key, label in labels:
+        if key not in v:
+            continue
+        t = float(v[key]["seconds"])
+        line = [label, v[key]["iterations"], fmt_time(t), f"{s / t:.1f}×"]
+        if has_cpu:
+            c = float(v[key]["cpu_seconds"])
+            line += [fmt_time(c), f"{sc / c:.1f}×"]
+        body.append(line)
+    md.append(table(["variant", "iterations", "wall", "speed-up (wall)"] +
+                    (["CPU (process)", "speed-up (CPU)"] if has_cpu else []), body))
+    md.append("")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("results")
+    ap.add_argument("--figures", default="docs/figures")
+    a = ap.parse_args()
+    if not os.path.isdir(a.results):
+        sys.exit(f"plot_benchmarks.py: no results folder '{a.results}'")
+    os.makedirs(a.figures, exist_ok=True)
+    md = []
+    meta = {r["key"]: r["value"] for r in read(os.path.join(a.results, "meta.csv"))}
+    if meta:
+        md.append(f"Machine: {meta.get('cpu', '?')}, {meta.get('hardware_threads', '?')} hardware threads; "
+                  f"rotations: {meta.get('rotations', '?')}; max iterations {meta.get('max_iterations', '?')}; "
+                  f"repeats {meta.get('repeats', '?')} (minimum taken).\n")
+    for f in (build_section, nn_section, hist_section, icp_section, accept_section):
+        f(a.results, a.figures, md)
+    with open(os.path.join(a.results, "tables.md"), "w") as f:
+        f.write("\n".join(md) + "\n")
+    print("\n".join(md))
+    print(f"figures in {a.figures}, tables in {os.path.join(a.results, 'tables.md')}", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()

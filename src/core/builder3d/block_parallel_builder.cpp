@@ -1,0 +1,361 @@
+// Block-parallel Delaunay edges: blocks + certified, growing halos. See block_parallel_builder.h.
+#include "pcl_delaunay_walk/core/builder3d/block_parallel_builder.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <thread>
+
+#include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
+#include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
+
+namespace dw {
+namespace builder3d {
+namespace {
+
+/// Uniform grid over all points (about 4 points per cell on volumetric data): the unit in which a
+/// block's halo grows and in which "every point of this ball is present" is decided.
+struct CellGrid {
+  double lo[3] = {0, 0, 0};
+  double cell = 1.0;
+  int dims[3] = {1, 1, 1};
+  std::vector<std::uint32_t> cell_of;  // per point
+  std::vector<std::uint32_t> start;    // CSR over cells
+  std::vector<index_t> members;
+
+  std::size_t numCells() const { return std::size_t(dims[0]) * dims[1] * dims[2]; }
+  int coord(double v, int k) const {
+    const double c = std::floor((v - lo[k]) / cell);
+    return static_cast<int>(std::min(std::max(c, 0.0), double(dims[k] - 1)));
+  }
+  std::uint32_t index(int x, int y, int z) const {
+    return static_cast<std::uint32_t>((std::size_t(x) * dims[1] + y) * dims[2] + z);
+  }
+
+  explicit CellGrid(const std::vector<Vec3f>& p) {
+    const std::size_t n = p.size();
+    double hi[3] = {p[0].x, p[0].y, p[0].z};
+    lo[0] = hi[0], lo[1] = hi[1], lo[2] = hi[2];
+    for (const Vec3f& q : p) {
+      const double c[3] = {q.x, q.y, q.z};
+      for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], c[k]), hi[k] = std::max(hi[k], c[k]);
+    }
+    double ext[3], vol = 1.0, emax = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      ext[k] = hi[k] - lo[k];
+      emax = std::max(emax, ext[k]);
+    }
+    for (int k = 0; k < 3; ++k) vol *= std::max(ext[k], emax * 1e-3);
+    cell = std::max(std::cbrt(vol / std::max<double>(1.0, double(n) / 4.0)), emax / 1024.0);
+    if (!(cell > 0.0)) cell = 1.0;
+    for (int k = 0; k < 3; ++k) dims[k] = std::max(1, std::min(1024, int(std::ceil(ext[k] / cell)) + 1));
+    cell_of.resize(n);
+    start.assign(numCells() + 1, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+      cell_of[i] = index(coord(p[i].x, 0), coord(p[i].y, 1), coord(p[i].z, 2));
+      ++start[cell_of[i] + 1];
+    }
+    for (std::size_t c = 0; c < numCells(); ++c) start[c + 1] += start[c];
+    members.resize(n);
+    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+    for (std::size_t i = 0; i < n; ++i) members[fill[cell_of[i]]++] = static_cast<index_t>(i);
+  }
+};
+
+/// One block: its own vertex range, the cells it holds completely, its kernel.
+class Block {
+ public:
+  Block(const std::vector<Vec3f>& points, const CellGrid& grid, std::size_t first, std::size_t last)
+      : points_(points), grid_(grid), first_(first), last_(last), covered_(grid.numCells(), 0) {}
+
+  // Own cells plus one ring of cells around them, triangulated.
+  void triangulate() {
+    std::vector<std::uint32_t> own;
+    for (std::size_t i = first_; i < last_; ++i) {
+      const std::uint32_t c = grid_.cell_of[i];
+      if (!covered_[c]) {
+        covered_[c] = 1;
+        own.push_back(c);
+      }
+    }
+    std::vector<index_t> ids;
+    for (std::uint32_t c : own) {
+      const int x = int(c / (std::size_t(grid_.dims[1]) * grid_.dims[2]));
+      const int y = int((c / grid_.dims[2]) % grid_.dims[1]);
+      const int z = int(c % grid_.dims[2]);
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dz = -1; dz <= 1; ++dz) {
+            const int X = x + dx, Y = y + dy, Z = z + dz;
+            if (X < 0 || Y < 0 || Z < 0 || X >= grid_.dims[0] || Y >= grid_.dims[1] || Z >= grid_.dims[2])
+              continue;
+            const std::uint32_t nc = grid_.index(X, Y, Z);
+            if (!covered_[nc]) covered_[nc] = 1;
+          }
+    }
+    for (std::size_t c = 0; c < grid_.numCells(); ++c)
+      if (covered_[c])
+        ids.insert(ids.end(), grid_.members.begin() + grid_.start[c],
+                   grid_.members.begin() + grid_.start[c + 1]);
+    halo_points_ = ids.size() - (last_ - first_);
+    const std::vector<index_t> order = brioOrder(points_, std::move(ids));
+    kernel_.setPoints(points_.data(), points_.size());
+    kernel_.trackBirths(true);
+    kernel_.build(order.data(), order.size());
+  }
+
+  std::vector<index_t> hullVertices() const { return kernel_.hullVertices(); }
+
+  // Grows the halo until every finite tetrahedron around the block's own vertices is certified, then
+  // inserts the global hull boundary points it lacks (so its infinite tetrahedra are global ones) and
+  // grows again. Hull points come last: inserted early they would join the block's vertices to far
+  // away points through the still-thin halo, and those huge spheres would pull in most of the cloud.
+  void certify(const std::vector<index_t>& hull) {
+    grow();
+    for (index_t h : hull)
+      if (!covered_[grid_.cell_of[h]]) {
+        kernel_.insert(h);
+        extra_.push_back(h);
+      }
+    std::sort(extra_.begin(), extra_.end());
+    halo_points_ += extra_.size();
+    grow();
+  }
+
+  std::vector<std::pair<index_t, index_t>> edges() const { return kernel_.edgesFrom(first_, last_); }
+  std::size_t haloPoints() const { return halo_points_; }
+
+  // Certification passes. A certified tetrahedron stays certified and alive (points are only added
+  // and none lies in its ball), and every point found in an uncertified one's ball is inserted,
+  // which destroys it unless that point lay only within the rounding margin. So a pass looks at the
+  // tetrahedra born since the previous pass, plus the few it left uncertified that are still there.
+  void grow() {
+    std::vector<std::uint32_t> grown;
+    std::vector<std::pair<std::size_t, std::array<index_t, 4>>> pending, still;
+    bool first = last_pass_ == kNoPass;
+    for (;;) {
+      grown.clear();
+      still.clear();
+      const std::uint32_t now = kernel_.clock();
+      auto check = [&](std::size_t t) {
+        const index_t* tv = kernel_.tetVertices(t);
+        if (tv[0] == DelaunayKernel3D::kDead) return;
+        bool mine = false, infinite = false;
+        for (unsigned k = 0; k < 4; ++k) {
+          if (tv[k] == DelaunayKernel3D::kInfinite) {
+            infinite = true;
+          } else if (tv[k] >= first_ && tv[k] < last_) {
+            mine = true;
+          }
+        }
+        // Infinite tetrahedra are settled by the global hull (certify()).
+        if (!mine || infinite) return;
+        const std::size_t before = grown.size();
+        missingUnderBall(tv, grown);
+        if (grown.size() != before) still.push_back({t, {tv[0], tv[1], tv[2], tv[3]}});
+      };
+      const std::size_t slots = kernel_.tetSlots();
+      for (std::size_t t = 0; t < slots; ++t)
+        if (first || kernel_.birth(t) > last_pass_) check(t);
+      for (const auto& p : pending) {
+        const index_t* tv = kernel_.tetVertices(p.first);
+        if (kernel_.birth(p.first) <= last_pass_ && std::equal(tv, tv + 4, p.second.begin())) check(p.first);
+      }
+      last_pass_ = now;
+      first = false;
+      pending.swap(still);
+      if (grown.empty()) return;
+      ++rounds_;
+      std::vector<index_t> ids;
+      for (std::uint32_t c : grown)
+        for (std::uint32_t k = grid_.start[c]; k < grid_.start[c + 1]; ++k) {
+          const index_t id = grid_.members[k];
+          if (!std::binary_search(extra_.begin(), extra_.end(), id)) ids.push_back(id);
+        }
+      std::sort(ids.begin(), ids.end());  // Morton order: short walks between insertions
+      for (index_t id : ids) kernel_.insert(id);
+      halo_points_ += ids.size();
+    }
+  }
+
+  std::size_t rounds() const { return rounds_; }
+
+ private:
+  // Appends (and marks held) every cell not yet held that has a point inside the circumsphere of the
+  // finite tetrahedron tv, enlarged by a bound on the rounding of its centre and radius. When none
+  // has, every point of the ball is in the kernel: the tetrahedron is certified.
+  void missingUnderBall(const index_t* tv, std::vector<std::uint32_t>& grown) {
+    double P[4][3];
+    for (unsigned k = 0; k < 4; ++k) {
+      const Vec3f& q = points_[tv[k]];
+      P[k][0] = q.x, P[k][1] = q.y, P[k][2] = q.z;
+    }
+    double u[3], v[3], w[3];
+    for (int k = 0; k < 3; ++k) u[k] = P[1][k] - P[0][k], v[k] = P[2][k] - P[0][k], w[k] = P[3][k] - P[0][k];
+    const double vxw[3] = {v[1] * w[2] - v[2] * w[1], v[2] * w[0] - v[0] * w[2], v[0] * w[1] - v[1] * w[0]};
+    const double wxu[3] = {w[1] * u[2] - w[2] * u[1], w[2] * u[0] - w[0] * u[2], w[0] * u[1] - w[1] * u[0]};
+    const double uxv[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+    const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+    const double vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    const double ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+    const double det = u[0] * vxw[0] + u[1] * vxw[1] + u[2] * vxw[2];
+    int range[3][2];
+    double off[3], centre[3], r = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      off[k] = (uu * vxw[k] + vv * wxu[k] + ww * uxv[k]) / (2.0 * det);
+      r += off[k] * off[k];
+    }
+    r = std::sqrt(r);
+    const double L = std::sqrt(std::max({uu, vv, ww}));
+    const double eps = std::numeric_limits<double>::epsilon();
+    const double margin =
+        64.0 * eps * (L * L * L * L + r * L * L * L) / std::fabs(det) + 1e-9 * (r + grid_.cell);
+    const double R = r + margin;
+    if (!std::isfinite(R)) {
+      for (int k = 0; k < 3; ++k)
+        range[k][0] = 0, range[k][1] = grid_.dims[k] - 1;  // a flat sliver: take all
+    } else {
+      for (int k = 0; k < 3; ++k) {
+        centre[k] = P[0][k] + off[k];
+        range[k][0] = grid_.coord(centre[k] - R, k);
+        range[k][1] = grid_.coord(centre[k] + R, k);
+      }
+    }
+    const bool all = !std::isfinite(R);
+    const double R2 = R * R;
+    for (int x = range[0][0]; x <= range[0][1]; ++x)
+      for (int y = range[1][0]; y <= range[1][1]; ++y)
+        for (int z = range[2][0]; z <= range[2][1]; ++z) {
+          const std::uint32_t c = grid_.index(x, y, z);
+          if (covered_[c] || grid_.start[c] == grid_.start[c + 1]) continue;
+          if (!all) {
+            // Skip cells whose box misses the ball: huge spheres of hull slivers only cut a cap.
+            const int xyz[3] = {x, y, z};
+            double d2 = 0.0;
+            for (int k = 0; k < 3; ++k) {
+              const double b0 = grid_.lo[k] + xyz[k] * grid_.cell, b1 = b0 + grid_.cell;
+              const double d = centre[k] < b0 ? b0 - centre[k] : (centre[k] > b1 ? centre[k] - b1 : 0.0);
+              d2 += d * d;
+            }
+            if (d2 > R2 * (1.0 + 1e-12)) continue;
+          }
+          bool inside = all;
+          for (std::uint32_t k = grid_.start[c]; k < grid_.start[c + 1] && !inside; ++k) {
+            const Vec3f& q = points_[grid_.members[k]];
+            const double dx = q.x - centre[0], dy = q.y - centre[1], dz = q.z - centre[2];
+            inside = dx * dx + dy * dy + dz * dz <= R2;
+          }
+          if (!inside) continue;
+          covered_[c] = 1;
+          grown.push_back(c);
+        }
+  }
+
+  const std::vector<Vec3f>& points_;
+  const CellGrid& grid_;
+  std::size_t first_, last_;
+  std::vector<std::uint8_t> covered_;  // cells whose points are all in the kernel
+  std::vector<index_t> extra_;         // global hull points inserted outside the held cells, sorted
+  static constexpr std::uint32_t kNoPass = 0xFFFFFFFFu;
+  std::uint32_t last_pass_ = kNoPass;  // kernel clock at the last certification pass
+  DelaunayKernel3D kernel_;
+  std::size_t halo_points_ = 0, rounds_ = 0;
+};
+
+template <class Fn>
+void parallelFor(std::size_t count, Fn&& fn) {
+  std::vector<std::exception_ptr> errors(count);
+  std::vector<std::thread> pool;
+  for (std::size_t b = 1; b < count; ++b)
+    pool.emplace_back([&, b] {
+      try {
+        fn(b);
+      } catch (...) {
+        errors[b] = std::current_exception();
+      }
+    });
+  try {
+    fn(0);
+  } catch (...) {
+    errors[0] = std::current_exception();
+  }
+  for (auto& t : pool) t.join();
+  for (auto& e : errors)
+    if (e) std::rethrow_exception(e);
+}
+
+}  // namespace
+
+EdgeList blockParallelDelaunayEdges(const std::vector<Vec3f>& points, unsigned num_blocks,
+                                    BlockBuildStats* stats) {
+  const std::size_t n = points.size();
+  if (num_blocks <= 1 || n < 5) {
+    DelaunayKernel3D k;
+    k.setPoints(points.data(), n);
+    const std::vector<index_t> order = brioOrder(points);
+    k.build(order.data(), order.size());
+    auto chunks = k.releaseIntoEdgeChunks(1);
+    if (stats) *stats = BlockBuildStats{1, 0, 0, 0};
+    return std::move(chunks[0]);
+  }
+  const CellGrid grid(points);
+  std::vector<Block> blocks;
+  blocks.reserve(num_blocks);
+  for (unsigned b = 0; b < num_blocks; ++b)
+    blocks.emplace_back(points, grid, n * b / num_blocks, n * (b + 1) / num_blocks);
+
+  // Map: every block triangulates its cells plus one ring.
+  parallelFor(num_blocks, [&](std::size_t b) { blocks[b].triangulate(); });
+
+  // The global hull: its boundary points lie on some block's local hull boundary.
+  std::vector<index_t> candidates;
+  for (const Block& b : blocks) {
+    const auto h = b.hullVertices();
+    candidates.insert(candidates.end(), h.begin(), h.end());
+  }
+  std::sort(candidates.begin(), candidates.end());
+  candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+  std::vector<index_t> hull;
+  {
+    DelaunayKernel3D k;
+    k.setPoints(points.data(), n);
+    const std::vector<index_t> order = brioOrder(points, candidates);
+    k.build(order.data(), order.size());
+    hull = k.hullVertices();
+  }
+  // Every block inserts the whole hull boundary: where that is a large part of the cloud (points on a
+  // convex surface such as a sphere) blocks would each redo most of the work. Sequential is faster.
+  if (hull.size() > n / 16) {
+    blocks.clear();
+    return blockParallelDelaunayEdges(points, 1, stats);
+  }
+
+  // Certify: grow halos until every tetrahedron around a block's own vertices is global.
+  std::vector<std::vector<std::pair<index_t, index_t>>> parts(num_blocks);
+  parallelFor(num_blocks, [&](std::size_t b) {
+    blocks[b].certify(hull);
+    parts[b] = blocks[b].edges();
+  });
+  if (stats) {
+    *stats = BlockBuildStats{num_blocks, 0, hull.size(), 0};
+    for (const Block& b : blocks) {
+      stats->halo_points += b.haloPoints();
+      stats->growth_rounds = std::max(stats->growth_rounds, b.rounds());
+    }
+  }
+  blocks.clear();
+  std::size_t total = 0;
+  for (const auto& p : parts) total += p.size();
+  EdgeList edges;
+  edges.reserve(total);
+  for (auto& p : parts) {
+    edges.insert(edges.end(), p.begin(), p.end());
+    std::vector<std::pair<index_t, index_t>>().swap(p);
+  }
+  return edges;
+}
+
+}  // namespace builder3d
+}  // namespace dw

@@ -1,0 +1,82 @@
+#include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "pcl_delaunay_walk/core/space_filling_curve.h"
+
+namespace dw {
+namespace builder3d {
+namespace {
+
+std::uint64_t splitmix64(std::uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+}  // namespace
+
+std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::uint64_t seed) {
+  std::vector<index_t> ids(points.size());
+  for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = static_cast<index_t>(i);
+  return brioOrder(points, std::move(ids), seed);
+}
+
+std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::vector<index_t> ids,
+                               std::uint64_t seed) {
+  const std::size_t n = ids.size();
+  std::vector<index_t> order(std::move(ids));
+  if (n == 0) return order;
+  for (index_t id : order)
+    if (id >= points.size()) throw Error("dw::builder3d::brioOrder: point id out of range");
+
+  const Vec3f& p0 = points[order[0]];
+  float lo[3] = {p0.x, p0.y, p0.z}, hi[3] = {lo[0], lo[1], lo[2]};
+  for (index_t id : order) {
+    const Vec3f& p = points[id];
+    const float c[3] = {p.x, p.y, p.z};
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], c[k]);
+      hi[k] = std::max(hi[k], c[k]);
+    }
+  }
+  // One cubic grid over the box (equal cell size on every axis keeps the curve's locality).
+  const double extent =
+      std::max({double(hi[0]) - lo[0], double(hi[1]) - lo[1], double(hi[2]) - lo[2], 1e-30});
+  const double scale = double((1u << 21) - 1) / extent;
+
+  // Rounds: the first small enough to be cheap whatever its order, then doubling.
+  unsigned rounds = 1;
+  while (rounds < 15 && (n >> rounds) > 512) ++rounds;
+
+  // keys[k] belongs to order[k]; sort positions, then map back to ids.
+  std::vector<std::uint64_t> keys(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const index_t i = order[k];
+    const Vec3f& p = points[i];
+    const auto cell = [&](float v, int k) {
+      const double c = std::floor((double(v) - lo[k]) * scale);
+      return static_cast<std::uint32_t>(std::min(std::max(c, 0.0), double((1u << 21) - 1)));
+    };
+    const std::uint64_t morton = mortonKey(cell(p.x, 0), cell(p.y, 1), cell(p.z, 2));
+    // Round R-1 with probability 1/2, R-2 with 1/4, ...; round 0 takes the remainder.
+    const std::uint64_t h = splitmix64(i ^ (seed * 0xD1B54A32D192ED03ull));
+    unsigned tz = 0;
+    while (tz + 1 < rounds && ((h >> tz) & 1u) == 0) ++tz;
+    const std::uint64_t round = rounds - 1 - tz;
+    keys[k] = (round << 59) | (morton >> 4);
+  }
+  std::vector<index_t> pos(n);
+  for (std::size_t k = 0; k < n; ++k) pos[k] = static_cast<index_t>(k);
+  std::sort(pos.begin(), pos.end(), [&](index_t a, index_t b) {
+    return keys[a] != keys[b] ? keys[a] < keys[b] : order[a] < order[b];
+  });
+  std::vector<index_t> sorted(n);
+  for (std::size_t k = 0; k < n; ++k) sorted[k] = order[pos[k]];
+  return sorted;
+}
+
+}  // namespace builder3d
+}  // namespace dw

@@ -1,0 +1,216 @@
+/// \file strip_merge.cpp
+/// \brief Band re-triangulation merge of two adjacent strip groups (see strip_merge.h for the proof).
+#include "strip_merge.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include "bowyer_watson.h"
+
+namespace dw {
+namespace tin {
+namespace detail {
+namespace {
+
+[[noreturn]] void mergeError(const std::string& what) {
+  throw Error("dw::tin: strip merge consistency failure (" + what + "); please report this input");
+}
+
+/// True only if the closed circumdisk of real triangle t provably lies strictly on the given side of
+/// the seam (left: u < seam; right: u > seam). Conservative: an ill-conditioned triangle is "unsure".
+bool provablySure(const PointSet& ps, const index_t* tv, index_t t, int axis, double seam, bool left) {
+  const index_t a = tv[3 * t] & ~kMark, b = tv[3 * t + 1], c = tv[3 * t + 2];
+  const double ax = ps.x(a), ay = ps.y(a);
+  const double bx = ps.x(b) - ax, by = ps.y(b) - ay, cx = ps.x(c) - ax, cy = ps.y(c) - ay;
+  const double p = bx * cy, q = by * cx;
+  const double d = 2.0 * (p - q);
+  const double mag = std::fabs(p) + std::fabs(q);
+  // A nearly flat triangle has a huge, badly determined circle: never call it sure.
+  if (!(std::fabs(d) > 1e-6 * mag)) return false;
+  const double b2 = bx * bx + by * by, c2 = cx * cx + cy * cy;
+  const double ux = (cy * b2 - by * c2) / d;
+  const double uy = (bx * c2 - cx * b2) / d;
+  const double r = std::sqrt(ux * ux + uy * uy);
+  const double l = std::max(std::sqrt(b2), std::sqrt(c2));
+  const double centre = axis == 0 ? ax + ux : ay + uy;
+  const double base = axis == 0 ? ax : ay;
+  // Rounding of the differences, the 2x2 determinant (relative error <= ~1e-9 after the check above),
+  // the numerators (<= ~12 eps l^3 / |d|), the square root and the final sums, with a factor > 4 spare.
+  constexpr double kEps = 1.1102230246251565e-16;
+  const double margin = 64.0 * kEps * l * l * l / std::fabs(d) + 4e-9 * (std::fabs(ux) + std::fabs(uy) + r) +
+                        16.0 * kEps * (std::fabs(base) + std::fabs(seam) + r + std::fabs(ux) + std::fabs(uy));
+  if (left) return centre + r + margin < seam;
+  return centre - r - margin > seam;
+}
+
+/// Marks and returns the unsure triangles of a group: the ghosts and every triangle, connected to them
+/// through unsure triangles, whose circle may reach across the seam.
+std::vector<index_t> collectBand(const PointSet& ps, index_t* tv, const index_t* tn, const Group& g, int axis,
+                                 double seam, bool left) {
+  std::vector<index_t> band;
+  if (!g.has_triangles) return band;
+  tv[3 * g.ghost] |= kMark;
+  band.push_back(g.ghost);
+  for (std::size_t head = 0; head < band.size(); ++head) {
+    const index_t t = band[head];
+    for (index_t i = 0; i < 3; ++i) {
+      const index_t n = tn[3 * t + i] / 3;
+      if (tv[3 * n] & kMark) continue;
+      if (isGhost(tv, n) || !provablySure(ps, tv, n, axis, seam, left)) {
+        tv[3 * n] |= kMark;
+        band.push_back(n);
+      }
+    }
+  }
+  return band;
+}
+
+inline std::uint64_t edgeKey(index_t a, index_t b) {
+  return (static_cast<std::uint64_t>(a) << 32) | b;
+}
+
+}  // namespace
+
+Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam, Group&& a, Group&& b,
+                  std::size_t* band_points) {
+  if (a.num_vertices == 0) {
+    b.strip_begin = a.strip_begin;
+    return std::move(b);
+  }
+  if (b.num_vertices == 0) {
+    a.strip_end = b.strip_end;
+    return std::move(a);
+  }
+  index_t* tv = arena.tv;
+  index_t* tn = arena.tn;
+  const std::vector<index_t> band_a = collectBand(ps, tv, tn, a, axis, seam, true);
+  const std::vector<index_t> band_b = collectBand(ps, tv, tn, b, axis, seam, false);
+
+  // Band vertices and the band-to-sure boundary edges E_b, keyed by their direction as seen from the
+  // band side (the side on which DT(V_U) will hold the same directed edge).
+  std::vector<index_t> verts(a.loose);
+  verts.insert(verts.end(), b.loose.begin(), b.loose.end());
+  std::vector<std::pair<std::uint64_t, index_t>> walls;  // (edge key, corner of the sure triangle)
+  for (const std::vector<index_t>* band : {&band_a, &band_b})
+    for (const index_t t : *band) {
+      for (index_t i = 0; i < 3; ++i) {
+        const index_t v = tv[3 * t + i] & ~kMark;
+        if (v != kGhost) verts.push_back(v);
+        const index_t nc = tn[3 * t + i];
+        if (!(tv[3 * (nc / 3)] & kMark)) {
+          const index_t u0 = tv[3 * t + next3(i)] & ~kMark, u1 = tv[3 * t + prev3(i)] & ~kMark;
+          if (u0 == kGhost || u1 == kGhost) mergeError("ghost edge on the band boundary");
+          walls.emplace_back(edgeKey(u0, u1), nc);
+        }
+      }
+    }
+  std::sort(verts.begin(), verts.end());
+  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+  std::sort(walls.begin(), walls.end());
+  if (band_points) *band_points += verts.size();
+
+  // DT(V_U) in a private arena, on the same global positions and ranks.
+  detail::brioHilbertSort(ps.xy, verts);
+  const std::size_t cap = 2 * verts.size() + 2;
+  std::vector<index_t> tv2(3 * cap), tn2(3 * cap);
+  BowyerWatson kernel(ps, TriangleArena{tv2.data(), tn2.data()}, 0, static_cast<index_t>(cap));
+  kernel.run(verts.data(), verts.size());
+  if (!kernel.duplicates().empty()) mergeError("duplicate band vertices");
+
+  Group out;
+  out.strip_begin = a.strip_begin;
+  out.strip_end = b.strip_end;
+  out.num_vertices = a.num_vertices + b.num_vertices;
+  out.free_slots = std::move(a.free_slots);
+  out.free_slots.insert(out.free_slots.end(), b.free_slots.begin(), b.free_slots.end());
+  out.free_slots.insert(out.free_slots.end(), band_a.begin(), band_a.end());
+  out.free_slots.insert(out.free_slots.end(), band_b.begin(), band_b.end());
+  if (!kernel.hasTriangles()) {
+    if (a.has_triangles || b.has_triangles) mergeError("band lost its triangles");
+    out.loose = kernel.collinearVertices();
+    return out;
+  }
+
+  // Classify DT(V_U): 2 = band side of a wall (kept), 1 = covered by sure triangles (dropped).
+  const index_t used = kernel.used();
+  std::vector<unsigned char> state(used, 0);
+  std::vector<index_t> wall_of(3 * static_cast<std::size_t>(used), kDead);
+  std::vector<index_t> flood;
+  std::size_t walls_found = 0;
+  for (index_t t = 0; t < used; ++t) {
+    for (index_t i = 0; i < 3; ++i) {
+      const index_t u0 = tv2[3 * t + next3(i)], u1 = tv2[3 * t + prev3(i)];
+      if (u0 == kGhost || u1 == kGhost) continue;
+      const std::uint64_t key = edgeKey(u0, u1);
+      const auto it = std::lower_bound(walls.begin(), walls.end(), std::make_pair(key, index_t{0}));
+      if (it == walls.end() || it->first != key) continue;
+      wall_of[3 * t + i] = it->second;
+      ++walls_found;
+      if (state[t] == 1) mergeError("triangle on both sides of the band boundary");
+      state[t] = 2;
+      const index_t n = tn2[3 * t + i] / 3;
+      if (isGhost(tv2.data(), n)) mergeError("sure side of a wall is outside the hull");
+      if (state[n] == 2) mergeError("wall between two band triangles");
+      if (state[n] == 0) {
+        state[n] = 1;
+        flood.push_back(n);
+      }
+    }
+  }
+  if (walls_found != walls.size()) mergeError("a band boundary edge is not Delaunay in the band");
+  while (!flood.empty()) {
+    const index_t t = flood.back();
+    flood.pop_back();
+    for (index_t i = 0; i < 3; ++i) {
+      if (wall_of[3 * t + i] != kDead) mergeError("covered triangle on a wall");
+      const index_t nc = tn2[3 * t + i];
+      if (wall_of[nc] != kDead) continue;  // a wall seen from its sure side
+      const index_t n = nc / 3;
+      if (state[n] == 1) continue;
+      if (state[n] == 2 || isGhost(tv2.data(), n)) mergeError("covered region leaks into the band");
+      state[n] = 1;
+      flood.push_back(n);
+    }
+  }
+
+  // Euler: the merged triangulation (ghosts included) has 2V - 2 triangles; the sure ones stay.
+  std::size_t keep = 0;
+  for (index_t t = 0; t < used; ++t) keep += state[t] != 1;
+  const std::size_t sure_a = a.has_triangles ? 2 * a.num_vertices - 2 - band_a.size() : 0;
+  const std::size_t sure_b = b.has_triangles ? 2 * b.num_vertices - 2 - band_b.size() : 0;
+  if (keep + sure_a + sure_b != 2 * out.num_vertices - 2) mergeError("triangle count (Euler) mismatch");
+  if (keep > out.free_slots.size()) mergeError("not enough slots");
+
+  std::vector<index_t> slot(used, kDead);
+  std::size_t next = 0;
+  for (index_t t = 0; t < used; ++t)
+    if (state[t] != 1) slot[t] = out.free_slots[next++];
+  for (index_t t = 0; t < used; ++t) {
+    if (state[t] == 1) continue;
+    const index_t s = slot[t];
+    for (index_t i = 0; i < 3; ++i) tv[3 * s + i] = tv2[3 * t + i];
+    if (isGhost(tv2.data(), t)) out.ghost = s;
+    for (index_t i = 0; i < 3; ++i) {
+      const index_t w = wall_of[3 * t + i];
+      if (w != kDead) {
+        tn[3 * s + i] = w;
+        tn[w] = 3 * s + i;
+        continue;
+      }
+      const index_t nc = tn2[3 * t + i];
+      if (state[nc / 3] == 1) mergeError("kept triangle next to a covered one");
+      tn[3 * s + i] = 3 * slot[nc / 3] + nc % 3;
+    }
+  }
+  for (std::size_t k = next; k < out.free_slots.size(); ++k) tv[3 * out.free_slots[k]] = kDead;
+  out.free_slots.erase(out.free_slots.begin(), out.free_slots.begin() + static_cast<std::ptrdiff_t>(next));
+  out.has_triangles = true;
+  if (out.ghost == kDead) mergeError("merged triangulation has no hull");
+  return out;
+}
+
+}  // namespace detail
+}  // namespace tin
+}  // namespace dw

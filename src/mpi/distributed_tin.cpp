@@ -1,0 +1,253 @@
+/// \file distributed_tin.cpp
+/// \brief The MPI driver: byte-range LAS read, sampled slab splitters, all-to-all redistribution, leaf
+/// triangulation, and the pairwise merge tree over ranks.
+#include "pcl_delaunay_walk/mpi/distributed_tin.h"
+
+#include <algorithm>
+#include <chrono>
+#include <climits>
+#include <cmath>
+#include <csignal>
+#include <numeric>
+
+#include "pcl_delaunay_walk/core/las/las_reader.h"
+
+namespace dw {
+namespace mpi {
+namespace {
+
+double since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+struct PointRecord {  // one point in flight between ranks
+  double x, y, z;
+  std::uint64_t gid;
+};
+
+int toInt(std::size_t bytes, const char* what) {
+  if (bytes > static_cast<std::size_t>(INT_MAX))
+    throw Error(std::string("dw::mpi: ") + what + " exceeds 2 GiB for one message; use more ranks");
+  return static_cast<int>(bytes);
+}
+
+void sendGroup(MPI_Comm comm, int to, const SlabGroup& g) {
+  const std::vector<unsigned char> b = g.serialize();
+  MPI_Send(b.data(), toInt(b.size(), "a merge band"), MPI_BYTE, to, 7, comm);
+}
+
+SlabGroup receiveGroup(MPI_Comm comm, int from) {
+  MPI_Status st;
+  MPI_Probe(from, 7, comm, &st);
+  int count = 0;
+  MPI_Get_count(&st, MPI_BYTE, &count);
+  std::vector<unsigned char> b(static_cast<std::size_t>(count));
+  MPI_Recv(b.data(), count, MPI_BYTE, from, 7, comm, MPI_STATUS_IGNORE);
+  return SlabGroup::deserialize(b.data(), b.size());
+}
+
+void append(SlabPoints& to, const SlabPoints& from) {
+  to.gid.insert(to.gid.end(), from.gid.begin(), from.gid.end());
+  to.x.insert(to.x.end(), from.x.begin(), from.x.end());
+  to.y.insert(to.y.end(), from.y.begin(), from.y.end());
+  to.z.insert(to.z.end(), from.z.begin(), from.z.end());
+}
+
+/// Keeps only the points some emitted triangle uses, sorted by gid.
+SlabPoints usedPoints(const SlabPoints& pool, const std::vector<index_t>& triangles) {
+  std::vector<index_t> used(triangles);
+  std::sort(used.begin(), used.end());
+  used.erase(std::unique(used.begin(), used.end()), used.end());
+  std::vector<std::size_t> order(pool.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return pool.gid[a] < pool.gid[b]; });
+  SlabPoints out;
+  out.reserve(used.size());
+  std::size_t k = 0;
+  for (index_t g : used) {
+    while (k < order.size() && pool.gid[order[k]] < g) ++k;
+    if (k == order.size() || pool.gid[order[k]] != g)
+      throw Error("dw::mpi: internal inconsistency: no coordinates for emitted vertex " + std::to_string(g));
+    const std::size_t i = order[k];
+    out.push(g, pool.x[i], pool.y[i], pool.z[i]);
+  }
+  return out;
+}
+
+}  // namespace
+
+void RankTin::checkFault(const DistributedTinOptions& o, const char* stage) const {
+  if (o.fault_rank != rank || o.fault_stage != stage) return;
+  if (o.fault_kill) std::raise(SIGKILL);
+  throw Error("injected failure on rank " + std::to_string(rank) + " at stage '" + stage + "'");
+}
+
+RankTin triangulateDistributed(MPI_Comm comm, const DistributedTinOptions& options) {
+  RankTin t;
+  MPI_Comm_rank(comm, &t.rank);
+  MPI_Comm_size(comm, &t.size);
+  const int P = t.size, me = t.rank;
+  auto progress = [&](const std::string& s) {
+    if (me == 0 && options.progress) options.progress(s);
+  };
+
+  // 1. Read this rank's contiguous share of the records.
+  auto t0 = std::chrono::steady_clock::now();
+  las::LasReader reader(options.input);
+  const las::LasHeader& h = reader.header();
+  const std::uint64_t n_rec =
+      options.max_records ? std::min<std::uint64_t>(options.max_records, h.point_count) : h.point_count;
+  const std::uint64_t first = n_rec * me / P, last = n_rec * (me + 1) / P;
+  const bool same_scale = h.scale[0] == h.scale[1];
+  for (int k = 0; k < 2; ++k) {  // frame = LAS integers when the scales agree (as dw_tin does)
+    t.frame.scale[k] = same_scale ? h.scale[k] : 1.0;
+    t.frame.offset[k] = h.offset[k];
+  }
+  std::vector<PointRecord> mine;
+  mine.reserve(last - first);
+  {
+    reader.seek(first);
+    std::vector<las::LasRecord> buf;
+    std::uint64_t left = last - first;
+    while (left > 0) {
+      const std::size_t got =
+          reader.read(buf, static_cast<std::size_t>(std::min<std::uint64_t>(left, 1 << 16)));
+      if (got == 0) throw Error(options.input + ": unexpected end of point records");
+      for (std::size_t i = 0; i < got; ++i) {
+        const las::LasRecord& r = buf[i];
+        if (options.classification >= 0 && r.classification != options.classification) continue;
+        mine.push_back({same_scale ? double(r.X) : r.X * h.scale[0],
+                        same_scale ? double(r.Y) : r.Y * h.scale[1], r.Z * h.scale[2] + h.offset[2], 0});
+      }
+      left -= got;
+    }
+  }
+  // Global indices count kept records in file order, exactly as the single-process reader does.
+  std::uint64_t kept = mine.size(), base = 0, total = 0;
+  MPI_Exscan(&kept, &base, 1, MPI_UINT64_T, MPI_SUM, comm);
+  if (me == 0) base = 0;
+  MPI_Allreduce(&kept, &total, 1, MPI_UINT64_T, MPI_SUM, comm);
+  t.total_points = total;
+  if (total == 0) throw Error(options.input + ": no points to triangulate");
+  if (total >= 0xffffffffull) throw Error(options.input + ": too many points for 32-bit global indices");
+  for (std::size_t i = 0; i < mine.size(); ++i) mine[i].gid = base + i;
+  t.timings.read_s = since(t0);
+  progress("read " + std::to_string(total) + " points on " + std::to_string(P) + " ranks");
+  t.checkFault(options, "read");
+
+  // 2. Long axis and equal-count splitters from a gathered sample.
+  t0 = std::chrono::steady_clock::now();
+  double ext[4] = {-INFINITY, -INFINITY, -INFINITY, -INFINITY};  // -min x, max x, -min y, max y
+  for (const PointRecord& p : mine) {
+    ext[0] = std::max(ext[0], -p.x);
+    ext[1] = std::max(ext[1], p.x);
+    ext[2] = std::max(ext[2], -p.y);
+    ext[3] = std::max(ext[3], p.y);
+  }
+  MPI_Allreduce(MPI_IN_PLACE, ext, 4, MPI_DOUBLE, MPI_MAX, comm);
+  const int axis = (ext[3] + ext[2]) > (ext[1] + ext[0]) ? 1 : 0;
+  auto along = [axis](const PointRecord& p) { return axis == 0 ? p.x : p.y; };
+  std::vector<double> split(P + 1);
+  split[0] = -INFINITY;
+  split[P] = INFINITY;
+  if (P > 1) {
+    const std::size_t m = std::min<std::size_t>(mine.size(), 8192);
+    std::vector<double> sample(m);
+    for (std::size_t k = 0; k < m; ++k) sample[k] = along(mine[k * mine.size() / m]);
+    const int mi = static_cast<int>(m);
+    std::vector<int> counts(P), displs(P, 0);
+    MPI_Allgather(&mi, 1, MPI_INT, counts.data(), 1, MPI_INT, comm);
+    for (int r = 1; r < P; ++r) displs[r] = displs[r - 1] + counts[r - 1];
+    std::vector<double> all(static_cast<std::size_t>(displs[P - 1] + counts[P - 1]));
+    MPI_Allgatherv(sample.data(), mi, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, comm);
+    std::sort(all.begin(), all.end());
+    for (int r = 1; r < P; ++r) split[r] = all.empty() ? INFINITY : all[r * all.size() / P];
+  }
+
+  // 3. Redistribute: slab r = [split[r], split[r + 1]). Sources are concatenated in rank order, so the
+  // received points are already sorted by global index.
+  std::vector<std::size_t> send_n(P, 0);
+  auto slabOf = [&](const PointRecord& p) {
+    return static_cast<int>(std::upper_bound(split.begin() + 1, split.end() - 1, along(p)) - split.begin()) -
+           1;
+  };
+  std::vector<int> dest(mine.size());
+  std::size_t finite = 0;
+  for (std::size_t i = 0; i < mine.size(); ++i) {
+    dest[i] = std::isfinite(mine[i].x) && std::isfinite(mine[i].y) ? slabOf(mine[i]) : -1;
+    if (dest[i] >= 0) ++send_n[dest[i]], ++finite;
+  }
+  std::vector<int> scount(P), sdispl(P, 0), rcount(P), rdispl(P, 0);
+  for (int r = 0; r < P; ++r) scount[r] = toInt(send_n[r] * sizeof(PointRecord), "a redistribution message");
+  for (int r = 1; r < P; ++r) sdispl[r] = sdispl[r - 1] + scount[r - 1];
+  toInt(finite * sizeof(PointRecord), "one rank's share");
+  std::vector<PointRecord> out(finite);
+  {
+    std::vector<std::size_t> fill(P, 0);
+    for (int r = 1; r < P; ++r) fill[r] = fill[r - 1] + send_n[r - 1];
+    for (std::size_t i = 0; i < mine.size(); ++i)
+      if (dest[i] >= 0) out[fill[dest[i]]++] = mine[i];
+  }
+  std::vector<PointRecord>().swap(mine);
+  std::vector<int>().swap(dest);
+  MPI_Alltoall(scount.data(), 1, MPI_INT, rcount.data(), 1, MPI_INT, comm);
+  std::size_t rbytes = rcount[0];
+  for (int r = 1; r < P; ++r) rdispl[r] = toInt(rbytes, "one rank's slab"), rbytes += rcount[r];
+  toInt(rbytes, "one rank's slab");
+  std::vector<PointRecord> slab(rbytes / sizeof(PointRecord));
+  MPI_Alltoallv(out.data(), scount.data(), sdispl.data(), MPI_BYTE, slab.data(), rcount.data(), rdispl.data(),
+                MPI_BYTE, comm);
+  std::vector<PointRecord>().swap(out);
+  SlabPoints pts;
+  pts.reserve(slab.size());
+  for (const PointRecord& p : slab) pts.push(static_cast<index_t>(p.gid), p.x, p.y, p.z);
+  std::vector<PointRecord>().swap(slab);
+  t.slab_points = pts.size();
+  t.timings.exchange_s = since(t0);
+  progress("redistributed into " + std::to_string(P) + " slabs along " + (axis ? "y" : "x"));
+
+  // 4. Leaf: triangulate the slab, emit what is sure in it.
+  t0 = std::chrono::steady_clock::now();
+  SlabOptions sopt;
+  sopt.num_threads = std::max(1u, options.num_threads);
+  SlabPoints pool = pts;  // coordinates for the output piece
+  SlabGroup group;
+  if (split[me] < split[me + 1]) {
+    group = processLeaf(std::move(pts), axis, split[me], split[me + 1], t.emitted, sopt);
+  } else {  // equal splitters: an empty slab
+    group.axis = axis;
+    group.lo = split[me];
+    group.hi = split[me + 1];
+  }
+  t.timings.leaf_s = since(t0);
+  t.checkFault(options, "leaf");
+  progress("leaves done");
+
+  // 5. Merge tree: at step s, rank r (r % 2s == 0) takes the group of rank r + s.
+  t0 = std::chrono::steady_clock::now();
+  t.checkFault(options, "merge");  // every rank passes here, senders and receivers alike
+  for (int step = 1; step < P; step *= 2) {
+    if (me % (2 * step) == step) {
+      sendGroup(comm, me - step, group);
+      group = SlabGroup();
+      break;
+    }
+    if (me % (2 * step) == 0 && me + step < P) {
+      SlabGroup right = receiveGroup(comm, me + step);
+      append(pool, right.band);
+      const std::size_t before = t.emitted.band_points;
+      group = mergeSlabs(std::move(group), std::move(right), t.emitted, sopt);
+      progress("merge level " + std::to_string(step) + ": " + std::to_string(t.emitted.band_points - before) +
+               " band points on rank 0");
+    }
+  }
+  if (me == 0 && !(std::isinf(group.lo) && std::isinf(group.hi)))
+    throw Error("dw::mpi: internal inconsistency: the merge tree did not reach the whole axis");
+  t.timings.merge_s = since(t0);
+  t.coords = usedPoints(pool, t.emitted.triangles);
+  return t;
+}
+
+}  // namespace mpi
+}  // namespace dw

@@ -1,0 +1,163 @@
+// The Bowyer-Watson kernel on its own: structural validity (adjacency, orientation, local Delaunay
+// under the perturbation), independence of insertion order and thread count, incremental insertion,
+// and clear errors on inputs outside its contract.
+#include <gtest/gtest.h>
+
+#include <limits>
+#include <numeric>
+
+#include "builder3d/builder3d_test_util.h"
+#include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
+#include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
+
+namespace {
+
+using b3d_test::Edges;
+using dw::builder3d::DelaunayKernel3D;
+
+Edges kernelEdges(const DelaunayKernel3D& k, unsigned threads) {
+  Edges all;
+  for (auto& c : k.edgeChunks(threads)) all.insert(all.end(), c.begin(), c.end());
+  return all;
+}
+
+Edges buildWithOrder(const std::vector<dw::Vec3f>& pts, const std::vector<dw::index_t>& order,
+                     bool check = true) {
+  DelaunayKernel3D k;
+  k.setPoints(pts.data(), pts.size());
+  k.build(order.data(), order.size());
+  if (check) k.validate();
+  EXPECT_EQ(k.numVertices(), pts.size());
+  return kernelEdges(k, 1);
+}
+
+std::vector<dw::index_t> identity(std::size_t n) {
+  std::vector<dw::index_t> o(n);
+  std::iota(o.begin(), o.end(), 0u);
+  return o;
+}
+
+TEST(DelaunayKernel3D, UniformIsValidAndEdgesAreUnique) {
+  const auto pts = b3d_test::uniformCube(3000, 1);
+  DelaunayKernel3D k;
+  k.setPoints(pts.data(), pts.size());
+  const auto order = dw::builder3d::brioOrder(pts);
+  k.build(order.data(), order.size());
+  k.validate();
+  const Edges e = kernelEdges(k, 1);
+  EXPECT_EQ(b3d_test::normalise(e).size(), e.size()) << "an edge was emitted twice";
+  for (const auto& p : e) ASSERT_LT(p.first, p.second);
+  // Volumetric Delaunay: about 7.7 undirected edges per vertex (DESIGN.md: mean degree ~15.5).
+  EXPECT_GT(e.size(), 6 * pts.size());
+  EXPECT_LT(e.size(), 9 * pts.size());
+  EXPECT_EQ(k.stats().fallback_locations, 0u);
+}
+
+TEST(DelaunayKernel3D, SameGraphForAnyThreadCount) {
+  const auto pts = b3d_test::uniformCube(4000, 2);
+  DelaunayKernel3D k;
+  k.setPoints(pts.data(), pts.size());
+  const auto order = dw::builder3d::brioOrder(pts);
+  k.build(order.data(), order.size());
+  const Edges one = b3d_test::normalise(kernelEdges(k, 1));
+  for (unsigned t : {2u, 3u, 8u}) EXPECT_EQ(b3d_test::normalise(kernelEdges(k, t)), one) << t << " threads";
+}
+
+TEST(DelaunayKernel3D, InsertionOrderDoesNotChangeTheGraph) {
+  // With simulation of simplicity the perturbed Delaunay triangulation is unique, so even fully
+  // degenerate input (a grid: all cells cospherical) gives the same edges whatever the order.
+  for (const auto& pts : {b3d_test::uniformCube(1500, 3), b3d_test::grid(6, 5, 4)}) {
+    const Edges a = b3d_test::normalise(buildWithOrder(pts, identity(pts.size())));
+    const Edges b = b3d_test::normalise(buildWithOrder(pts, dw::builder3d::brioOrder(pts, 1)));
+    auto rev = identity(pts.size());
+    std::reverse(rev.begin(), rev.end());
+    const Edges c = b3d_test::normalise(buildWithOrder(pts, rev));
+    EXPECT_EQ(a, b);
+    EXPECT_EQ(a, c);
+  }
+}
+
+TEST(DelaunayKernel3D, DegenerateInputsGiveValidTriangulations) {
+  const std::vector<std::vector<dw::Vec3f>> sets = {
+      b3d_test::grid(7, 7, 7),               // cospherical cells, coplanar faces
+      b3d_test::latticeSphere(11 * 11 * 9),  // every point on one sphere
+      b3d_test::quantised(3000, 4, 0.1f),    // LAS-like quantisation
+      b3d_test::grid(30, 30, 2, 0.5f),       // two layers: nearly flat
+  };
+  for (const auto& pts : sets) {
+    ASSERT_GE(pts.size(), 5u);
+    const Edges e = buildWithOrder(pts, dw::builder3d::brioOrder(pts));
+    EXPECT_GE(e.size(), pts.size());
+  }
+}
+
+TEST(DelaunayKernel3D, IncrementalInsertionEqualsFreshBuild) {
+  for (const auto& pts : {b3d_test::uniformCube(3000, 5), b3d_test::grid(8, 6, 5)}) {
+    const std::size_t half = pts.size() / 2;
+    // The reference cloud grows: the first half exists first, the array grows, the rest arrives.
+    std::vector<dw::Vec3f> growing(pts.begin(), pts.begin() + half);
+    DelaunayKernel3D k;
+    k.setPoints(growing.data(), growing.size());
+    const auto order = dw::builder3d::brioOrder(growing);
+    k.build(order.data(), order.size());
+    growing = pts;
+    k.setPoints(growing.data(), growing.size());
+    for (std::size_t i = half; i < pts.size(); ++i) k.insert(static_cast<dw::index_t>(i));
+    k.validate();
+    const Edges fresh = b3d_test::normalise(buildWithOrder(pts, dw::builder3d::brioOrder(pts)));
+    EXPECT_EQ(b3d_test::normalise(kernelEdges(k, 2)), fresh);
+  }
+}
+
+TEST(DelaunayKernel3D, InputsOutsideTheContractThrow) {
+  DelaunayKernel3D k;
+  const auto flat = b3d_test::grid(5, 5, 1);
+  k.setPoints(flat.data(), flat.size());
+  auto o = identity(flat.size());
+  EXPECT_THROW(k.build(o.data(), o.size()), dw::Error);  // coplanar
+
+  const std::vector<dw::Vec3f> line = {{0, 0, 0}, {1, 1, 1}, {2, 2, 2}, {3, 3, 3}, {4, 4, 4}};
+  k.setPoints(line.data(), line.size());
+  o = identity(line.size());
+  EXPECT_THROW(k.build(o.data(), o.size()), dw::Error);  // collinear
+
+  const std::vector<dw::Vec3f> three = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  k.setPoints(three.data(), three.size());
+  o = identity(three.size());
+  EXPECT_THROW(k.build(o.data(), o.size()), dw::Error);  // too few
+
+  auto pts = b3d_test::uniformCube(100, 6);
+  pts.push_back(pts[10]);  // a duplicate
+  k.setPoints(pts.data(), pts.size());
+  o = identity(pts.size());
+  EXPECT_THROW(k.build(o.data(), o.size()), dw::Error);
+
+  o = identity(50);
+  o.push_back(static_cast<dw::index_t>(pts.size() + 5));  // out of range
+  EXPECT_THROW(k.build(o.data(), o.size()), dw::Error);
+
+  DelaunayKernel3D fresh;
+  EXPECT_THROW(fresh.insert(0), dw::Error);  // not built
+}
+
+TEST(IncrementalBuilder, RejectsNonFiniteInput) {
+  auto pts = b3d_test::uniformCube(50, 7);
+  pts[3].y = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(dw::incrementalDelaunayEdges(pts, {}), dw::Error);
+}
+
+TEST(IncrementalBuilder, ReportsProgress) {
+  const auto pts = b3d_test::uniformCube(2000, 8);
+  dw::BuildOptions opt;
+  double last = -1.0;
+  bool monotone = true;
+  opt.progress = [&](const std::string&, double f) {
+    monotone = monotone && f >= last;
+    last = f;
+  };
+  dw::incrementalDelaunayEdges(pts, opt);
+  EXPECT_TRUE(monotone);
+  EXPECT_EQ(last, 1.0);
+}
+
+}  // namespace

@@ -1,0 +1,228 @@
+// orient3d / insphere against an exact integer reference, on random, nearly degenerate and exactly
+// degenerate inputs; insphereSoS: agrees with the exact sign, alternates under permutations, never
+// answers 0 for a proper tetrahedron.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <random>
+
+#include "pcl_delaunay_walk/core/predicates_3d.h"
+
+namespace {
+
+using dw::predicates::insphere;
+using dw::predicates::insphereSoS;
+using dw::predicates::orient3d;
+using dw::predicates::signOf;
+using I128 = __int128;
+using P = std::array<double, 3>;
+
+int sign128(I128 v) {
+  return (v > 0) - (v < 0);
+}
+
+I128 det3(I128 a, I128 b, I128 c, I128 d, I128 e, I128 f, I128 g, I128 h, I128 i) {
+  return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
+}
+
+// Exact reference on integer coordinates (|coordinate| < 2^20 keeps insphere inside 127 bits).
+int orientRef(const P& a, const P& b, const P& c, const P& d) {
+  auto v = [&](const P& p, int k) { return I128(static_cast<std::int64_t>(p[k] - d[k])); };
+  return sign128(det3(v(a, 0), v(a, 1), v(a, 2), v(b, 0), v(b, 1), v(b, 2), v(c, 0), v(c, 1), v(c, 2)));
+}
+
+int insphereRef(const P& a, const P& b, const P& c, const P& d, const P& e) {
+  const P* p[4] = {&a, &b, &c, &d};
+  I128 m[4][4];
+  for (int r = 0; r < 4; ++r) {
+    I128 lift = 0;
+    for (int k = 0; k < 3; ++k) {
+      m[r][k] = static_cast<std::int64_t>((*p[r])[k] - e[k]);
+      lift += m[r][k] * m[r][k];
+    }
+    m[r][3] = lift;
+  }
+  // Laplace along the lifted column, signs matching Shewchuk's insphere.
+  I128 det = 0;
+  for (int r = 0; r < 4; ++r) {
+    I128 minor[9];
+    int k = 0;
+    for (int rr = 0; rr < 4; ++rr)
+      if (rr != r)
+        for (int c = 0; c < 3; ++c) minor[k++] = m[rr][c];
+    const I128 md =
+        det3(minor[0], minor[1], minor[2], minor[3], minor[4], minor[5], minor[6], minor[7], minor[8]);
+    det += ((r % 2 == 0) ? -1 : 1) * m[r][3] * md;
+  }
+  return sign128(det);
+}
+
+P randomInt(std::mt19937_64& rng, std::int64_t range) {
+  std::uniform_int_distribution<std::int64_t> u(-range, range);
+  return {double(u(rng)), double(u(rng)), double(u(rng))};
+}
+
+TEST(Predicates3D, ReferenceSignConventions) {
+  const P a{0, 0, 0}, b{1, 0, 0}, c{0, 1, 0}, below{0, 0, -1};
+  // Shewchuk: positive when d lies below the plane of counter-clockwise a, b, c.
+  EXPECT_GT(orient3d(a.data(), b.data(), c.data(), below.data()), 0.0);
+  EXPECT_EQ(orientRef(a, b, c, below), 1);
+  const P centre{0.25, 0.25, -0.25}, far{5, 5, 5};
+  EXPECT_GT(insphere(a.data(), b.data(), c.data(), below.data(), centre.data()), 0.0);
+  EXPECT_LT(insphere(a.data(), b.data(), c.data(), below.data(), far.data()), 0.0);
+  EXPECT_EQ(insphereRef(a, b, c, below, P{0.0, 0.0, 0.0}), 0);  // a vertex lies on its sphere
+  EXPECT_EQ(signOf(insphere(a.data(), b.data(), c.data(), below.data(), a.data())), 0);
+}
+
+TEST(Predicates3D, RandomIntegerInputMatchesExactReference) {
+  std::mt19937_64 rng(7);
+  for (int it = 0; it < 20000; ++it) {
+    const std::int64_t range = it % 2 ? (1 << 19) : 8;  // small range: many exact zeros
+    const P a = randomInt(rng, range), b = randomInt(rng, range), c = randomInt(rng, range),
+            d = randomInt(rng, range), e = randomInt(rng, range);
+    ASSERT_EQ(signOf(orient3d(a.data(), b.data(), c.data(), d.data())), orientRef(a, b, c, d));
+    ASSERT_EQ(signOf(insphere(a.data(), b.data(), c.data(), d.data(), e.data())), insphereRef(a, b, c, d, e));
+  }
+}
+
+TEST(Predicates3D, NearlyDegenerateInputNeedsTheExactPath) {
+  // Exactly coplanar / cospherical configurations with large coordinates, nudged by one unit: the
+  // rounded determinant is dominated by error there, so only the exact fallback gets these right.
+  std::mt19937_64 rng(11);
+  int zero_orient = 0, zero_sphere = 0;
+  for (int it = 0; it < 5000; ++it) {
+    const std::int64_t big = 1 << 19;
+    const P a = randomInt(rng, big), b = randomInt(rng, big), c = randomInt(rng, big);
+    P d{a[0] + b[0] - c[0], a[1] + b[1] - c[1], a[2] + b[2] - c[2]};  // parallelogram: coplanar
+    const int nudge = static_cast<int>(it % 3) - 1;
+    d[it % 3 == 0 ? 2 : 0] += nudge;
+    if (std::max({std::fabs(d[0]), std::fabs(d[1]), std::fabs(d[2])}) >= (1 << 20)) continue;
+    const int ref = orientRef(a, b, c, d);
+    ASSERT_EQ(signOf(orient3d(a.data(), b.data(), c.data(), d.data())), ref);
+    zero_orient += ref == 0;
+  }
+  // Integer points on the sphere x^2 + y^2 + z^2 = 101^2 (many lattice points), plus one unit nudges.
+  std::vector<P> sphere;
+  for (int x = -101; x <= 101; ++x)
+    for (int y = -101; y <= 101; ++y) {
+      const int z2 = 101 * 101 - x * x - y * y;
+      if (z2 < 0) continue;
+      const int z = static_cast<int>(std::lround(std::sqrt(double(z2))));
+      if (z * z == z2) sphere.push_back({double(x), double(y), double(z)});
+    }
+  ASSERT_GT(sphere.size(), 50u);
+  std::uniform_int_distribution<std::size_t> pick(0, sphere.size() - 1);
+  for (int it = 0; it < 5000; ++it) {
+    const P a = sphere[pick(rng)], b = sphere[pick(rng)], c = sphere[pick(rng)], d = sphere[pick(rng)];
+    P e = sphere[pick(rng)];
+    e[it % 3] += static_cast<int>(it % 3) - 1;
+    const int ref = insphereRef(a, b, c, d, e);
+    ASSERT_EQ(signOf(insphere(a.data(), b.data(), c.data(), d.data(), e.data())), ref);
+    zero_sphere += ref == 0;
+  }
+  EXPECT_GT(zero_orient, 100);  // the suite really exercised exact zeros
+  EXPECT_GT(zero_sphere, 100);
+}
+
+TEST(Predicates3D, FractionalAndHugeMagnitudes) {
+  // Scaling by a power of two is exact, so signs must be invariant under it: covers tiny and huge
+  // magnitudes (short of underflow/overflow of the degree-5 products) where a fixed-epsilon filter fails.
+  std::mt19937_64 rng(3);
+  for (int it = 0; it < 3000; ++it) {
+    P p[5];
+    for (auto& q : p) q = randomInt(rng, 4);
+    const int o = orientRef(p[0], p[1], p[2], p[3]);
+    const int s = insphereRef(p[0], p[1], p[2], p[3], p[4]);
+    for (double scale : {std::ldexp(1.0, -150), std::ldexp(1.0, -40), std::ldexp(1.0, 150)}) {
+      P q[5];
+      for (int i = 0; i < 5; ++i)
+        for (int k = 0; k < 3; ++k) q[i][k] = p[i][k] * scale;
+      ASSERT_EQ(signOf(orient3d(q[0].data(), q[1].data(), q[2].data(), q[3].data())), o);
+      ASSERT_EQ(signOf(insphere(q[0].data(), q[1].data(), q[2].data(), q[3].data(), q[4].data())), s);
+    }
+  }
+}
+
+TEST(Predicates3D, OffsetCoordinatesUseTwoComponentDifferences) {
+  // 2^30 + small fractions: differences are not exact in one double; the exact path must see the tails.
+  const double base = std::ldexp(1.0, 30);
+  const double tiny = std::ldexp(1.0, -22);
+  const P a{base, base, base}, b{base + 1, base, base}, c{base, base + 1, base};
+  const P on{base + 1, base + 1, base};         // coplanar with a, b, c
+  const P up{base + 1, base + 1, base + tiny};  // just above
+  EXPECT_EQ(signOf(orient3d(a.data(), b.data(), c.data(), on.data())), 0);
+  EXPECT_EQ(signOf(orient3d(a.data(), b.data(), c.data(), up.data())), -1);
+  const P d{base, base, base + 1};
+  const P corner{base + 1, base + 1, base + 1};  // the cube's corners are cospherical
+  EXPECT_EQ(signOf(insphere(a.data(), b.data(), c.data(), d.data(), corner.data())), 0);
+  const P inside{base + 1 - tiny, base + 1, base + 1};
+  EXPECT_EQ(signOf(insphere(a.data(), c.data(), b.data(), d.data(), inside.data())), 1);
+}
+
+TEST(Predicates3D, SoSAgreesWithExactSignWhenNonZero) {
+  std::mt19937_64 rng(5);
+  for (int it = 0; it < 5000; ++it) {
+    P p[5];
+    for (auto& q : p) q = randomInt(rng, 3);
+    if (orientRef(p[0], p[1], p[2], p[3]) == 0) continue;
+    const int s = insphereRef(p[0], p[1], p[2], p[3], p[4]);
+    const int sos =
+        insphereSoS(p[0].data(), p[1].data(), p[2].data(), p[3].data(), p[4].data(), 10, 20, 30, 40, 50);
+    if (s != 0) {
+      ASSERT_EQ(sos, s);
+    } else {
+      ASSERT_NE(sos, 0);
+    }
+  }
+}
+
+TEST(Predicates3D, SoSIsAlternatingUnderPermutations) {
+  // The perturbed determinant is a function of the (point, id) pairs that changes sign with every
+  // transposition: this is what makes all tetrahedra sharing a face agree on a tie.
+  std::mt19937_64 rng(9);
+  std::vector<P> cube;
+  for (int x = 0; x < 2; ++x)
+    for (int y = 0; y < 2; ++y)
+      for (int z = 0; z < 2; ++z) cube.push_back({double(x), double(y), double(z)});
+  int checked = 0;
+  for (int it = 0; it < 3000; ++it) {
+    std::array<int, 8> idx{0, 1, 2, 3, 4, 5, 6, 7};
+    std::shuffle(idx.begin(), idx.end(), rng);
+    const P* p[5];
+    std::uint64_t id[5];
+    for (int k = 0; k < 5; ++k) {
+      p[k] = &cube[idx[k]];
+      id[k] = static_cast<std::uint64_t>(idx[k]) * 7 + 3;
+    }
+    if (orientRef(*p[0], *p[1], *p[2], *p[3]) == 0) continue;
+    const int base = insphereSoS(p[0]->data(), p[1]->data(), p[2]->data(), p[3]->data(), p[4]->data(), id[0],
+                                 id[1], id[2], id[3], id[4]);
+    ASSERT_NE(base, 0);
+    std::array<int, 5> perm{0, 1, 2, 3, 4};
+    for (int rep = 0; rep < 10; ++rep) {
+      std::shuffle(perm.begin(), perm.end(), rng);
+      int parity = 1;
+      for (int i = 0; i < 5; ++i)
+        for (int j = i + 1; j < 5; ++j)
+          if (perm[i] > perm[j]) parity = -parity;
+      const int s =
+          insphereSoS(p[perm[0]]->data(), p[perm[1]]->data(), p[perm[2]]->data(), p[perm[3]]->data(),
+                      p[perm[4]]->data(), id[perm[0]], id[perm[1]], id[perm[2]], id[perm[3]], id[perm[4]]);
+      // Zero is allowed only when the permutation puts four coplanar points in front.
+      if (s == 0) continue;
+      ASSERT_EQ(s, parity * base);
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 1000);
+}
+
+TEST(Predicates3D, SoSAllCoplanarIsZero) {
+  const P a{0, 0, 0}, b{1, 0, 0}, c{0, 1, 0}, d{1, 1, 0}, e{2, 3, 0};
+  EXPECT_EQ(insphereSoS(a.data(), b.data(), c.data(), d.data(), e.data(), 0, 1, 2, 3, 4), 0);
+}
+
+}  // namespace
