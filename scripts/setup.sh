@@ -7,7 +7,8 @@ cd "$(dirname "$0")/.."
 PACKAGES=(build-essential cmake ninja-build ccache pkg-config
   libpcl-dev libqhull-dev libeigen3-dev libflann-dev libboost-dev
   libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev libcgal-dev
-  libopenmpi-dev openmpi-bin xvfb xauth python3 python3-matplotlib)
+  libopenmpi-dev openmpi-bin xvfb xauth python3 python3-matplotlib
+  clang libclang-rt-14-dev)
 
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -31,7 +31,7 @@ struct Header {
 static_assert(sizeof(Header) == 104, "header layout");
 
 /// 64-bit word-wise hash (multiply-xorshift): ~memory speed, and any byte flip changes it.
-std::uint64_t checksum(const std::uint8_t* p, std::size_t n) {
+std::uint64_t checksumImpl(const std::uint8_t* p, std::size_t n) {
   std::uint64_t h = 0x9E3779B97F4A7C15ULL ^ n;
   std::size_t i = 0;
   for (; i + 8 <= n; i += 8) {
@@ -63,11 +63,21 @@ void appendArray(std::vector<std::uint8_t>& out, const std::vector<T>& v) {
 template <typename T>
 void readArray(const std::uint8_t*& p, std::vector<T>& v, std::uint64_t count) {
   v.resize(count);
-  std::memcpy(v.data(), p, count * sizeof(T));
+  if (count != 0) std::memcpy(v.data(), p, count * sizeof(T));  // memcpy(nullptr, ., 0) is UB
   p += count * sizeof(T);
 }
 
 }  // namespace
+
+std::uint64_t graphFileChecksum(const std::uint8_t* data, std::size_t n) { return checksumImpl(data, n); }
+
+void resealGraphFile(std::vector<std::uint8_t>& f) {
+  if (f.size() < sizeof(Header)) return;
+  const std::uint64_t payload = checksumImpl(f.data() + sizeof(Header), f.size() - sizeof(Header));
+  std::memcpy(f.data() + offsetof(Header, payload_checksum), &payload, 8);
+  const std::uint64_t header = checksumImpl(f.data(), offsetof(Header, header_checksum));
+  std::memcpy(f.data() + offsetof(Header, header_checksum), &header, 8);
+}
 
 std::vector<std::uint8_t> serializeGraph(const DelaunayGraph& g) {
   Header h{};
@@ -88,8 +98,8 @@ std::vector<std::uint8_t> serializeGraph(const DelaunayGraph& g) {
   appendArray(out, g.originals_offsets);
   appendArray(out, g.originals);
   h.payload_bytes = out.size() - sizeof(Header);
-  h.payload_checksum = checksum(out.data() + sizeof(Header), h.payload_bytes);
-  h.header_checksum = checksum(reinterpret_cast<const std::uint8_t*>(&h), offsetof(Header, header_checksum));
+  h.payload_checksum = checksumImpl(out.data() + sizeof(Header), h.payload_bytes);
+  h.header_checksum = checksumImpl(reinterpret_cast<const std::uint8_t*>(&h), offsetof(Header, header_checksum));
   std::memcpy(out.data(), &h, sizeof(Header));
   return out;
 }
@@ -108,7 +118,7 @@ DelaunayGraph deserializeGraph(const std::uint8_t* data, std::size_t size) {
   Header h;
   std::memcpy(&h, data, sizeof(Header));
   if (std::memcmp(h.magic, kMagic, 8) != 0) fail("not a pcl_delaunay_walk graph (magic mismatch)");
-  if (h.header_checksum != checksum(data, offsetof(Header, header_checksum))) fail("header checksum mismatch");
+  if (h.header_checksum != checksumImpl(data, offsetof(Header, header_checksum))) fail("header checksum mismatch");
   if (h.version != kGraphFileVersion)
     fail("version " + std::to_string(h.version) + " is not supported (this build reads version " +
          std::to_string(kGraphFileVersion) + ")");
@@ -126,7 +136,7 @@ DelaunayGraph deserializeGraph(const std::uint8_t* data, std::size_t size) {
     fail("truncated or padded: payload is " + std::to_string(size - sizeof(Header)) + " bytes, header says " +
          std::to_string(h.payload_bytes) + ", arrays need " + std::to_string(expect));
   const std::uint8_t* p = data + sizeof(Header);
-  if (h.payload_checksum != checksum(p, h.payload_bytes)) fail("payload checksum mismatch (corrupt file)");
+  if (h.payload_checksum != checksumImpl(p, h.payload_bytes)) fail("payload checksum mismatch (corrupt file)");
 
   DelaunayGraph g;
   g.dimension = static_cast<int>(h.dimension);

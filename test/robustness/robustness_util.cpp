@@ -4,30 +4,9 @@
 
 namespace dw_robust {
 
-namespace {
-
-// The graph file checksum (graph_io.cpp): word-wise multiply-xorshift over the bytes.
-std::uint64_t fileChecksum(const std::uint8_t* p, std::size_t n) {
-  std::uint64_t h = 0x9E3779B97F4A7C15ULL ^ n;
-  std::size_t i = 0;
-  for (; i + 8 <= n; i += 8) {
-    std::uint64_t w;
-    std::memcpy(&w, p + i, 8);
-    h = (h ^ w) * 0xff51afd7ed558ccdULL;
-    h ^= h >> 29;
-  }
-  for (; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ULL;
-  h ^= h >> 33;
-  h *= 0xc4ceb9fe1a85ec53ULL;
-  return h ^ (h >> 33);
-}
-
-}  // namespace
-
 void reseal(std::vector<std::uint8_t>& f) {
   if (f.size() < hdr::kSize) return;
-  poke<std::uint64_t>(f, hdr::kPayloadChecksum, fileChecksum(f.data() + hdr::kSize, f.size() - hdr::kSize));
-  poke<std::uint64_t>(f, hdr::kHeaderChecksum, fileChecksum(f.data(), hdr::kHeaderChecksum));
+  dw::resealGraphFile(f);
 }
 
 std::vector<dw::Vec3f> mixedQueries(const dw::DelaunayGraph& g, const std::vector<double>& xyz, std::size_t n,

@@ -13,6 +13,7 @@
 
 #include "pcl_delaunay_walk/core/delaunay_graph.h"
 #include "pcl_delaunay_walk/core/graph_builder.h"
+#include "pcl_delaunay_walk/core/graph_io.h"
 #include "pcl_delaunay_walk/core/neighbour_search.h"
 
 namespace dw_robust {

@@ -22,4 +22,12 @@ void saveGraph(const DelaunayGraph& graph, const std::string& path);
 DelaunayGraph deserializeGraph(const std::uint8_t* data, std::size_t size);
 DelaunayGraph loadGraph(const std::string& path);
 
+/// The file format's checksum (64-bit word-wise multiply-xorshift) over n bytes.
+std::uint64_t graphFileChecksum(const std::uint8_t* data, std::size_t n);
+
+/// Recomputes both checksums of a serialised graph after its bytes were edited (tests and fuzzers use it
+/// so that the structural checks, not the checksums, are what meets a forged file). No-op on a buffer
+/// shorter than the header.
+void resealGraphFile(std::vector<std::uint8_t>& file);
+
 }  // namespace dw
