@@ -7,7 +7,9 @@
 namespace dw {
 
 namespace {
-[[noreturn]] void broken(const std::string& what) { throw Error("pcl_delaunay_walk: invalid graph: " + what); }
+[[noreturn]] void broken(const std::string& what) {
+  throw Error("pcl_delaunay_walk: invalid graph: " + what);
+}
 }  // namespace
 
 void DelaunayGraph::validate() const {
@@ -49,9 +51,9 @@ void DelaunayGraph::validate() const {
 }
 
 std::size_t DelaunayGraph::memoryBytes() const {
-  return points.size() * sizeof(Vec3f) + offsets.size() * sizeof(index_t) + edges.size() * sizeof(EdgeRecord) +
-         input_to_vertex.size() * sizeof(index_t) + originals_offsets.size() * sizeof(index_t) +
-         originals.size() * sizeof(index_t);
+  return points.size() * sizeof(Vec3f) + offsets.size() * sizeof(index_t) +
+         edges.size() * sizeof(EdgeRecord) + input_to_vertex.size() * sizeof(index_t) +
+         originals_offsets.size() * sizeof(index_t) + originals.size() * sizeof(index_t);
 }
 
 void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> undirected) {

@@ -32,9 +32,12 @@ int affineDimension(const std::vector<Vec3f>& p, double basis[6], double rel_tol
   auto sub = [](std::array<double, 3> a, std::array<double, 3> b) {
     return std::array<double, 3>{a[0] - b[0], a[1] - b[1], a[2] - b[2]};
   };
-  auto dotd = [](std::array<double, 3> a, std::array<double, 3> b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+  auto dotd = [](std::array<double, 3> a, std::array<double, 3> b) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  };
   auto cross = [](std::array<double, 3> a, std::array<double, 3> b) {
-    return std::array<double, 3>{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+    return std::array<double, 3>{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                                 a[0] * b[1] - a[1] * b[0]};
   };
   const auto p0 = d3(p[0]);
   std::size_t i1 = 0;
@@ -154,7 +157,8 @@ DelaunayGraph buildDelaunayGraph(const PointView& view, const BuildOptions& opti
     it.input = finite[k];
     // The key comes from the float position, so inputs that round to one float position (and so
     // collapse below) get equal keys and end up adjacent in the sort.
-    const double fp[3] = {double(it.p.x) + g.origin[0], double(it.p.y) + g.origin[1], double(it.p.z) + g.origin[2]};
+    const double fp[3] = {double(it.p.x) + g.origin[0], double(it.p.y) + g.origin[1],
+                          double(it.p.z) + g.origin[2]};
     auto q = [&](int a) {
       return static_cast<std::uint32_t>(std::clamp((fp[a] - lo[a]) * cell, 0.0, double((1u << 21) - 1)));
     };

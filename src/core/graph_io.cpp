@@ -46,7 +46,9 @@ std::uint64_t checksumImpl(const std::uint8_t* p, std::size_t n) {
   return h ^ (h >> 33);
 }
 
-[[noreturn]] void fail(const std::string& why) { throw GraphFileError("pcl_delaunay_walk: bad graph file: " + why); }
+[[noreturn]] void fail(const std::string& why) {
+  throw GraphFileError("pcl_delaunay_walk: bad graph file: " + why);
+}
 
 /// a * b + acc without overflow, or fail.
 std::uint64_t mulAdd(std::uint64_t a, std::uint64_t b, std::uint64_t acc) {
@@ -69,7 +71,9 @@ void readArray(const std::uint8_t*& p, std::vector<T>& v, std::uint64_t count) {
 
 }  // namespace
 
-std::uint64_t graphFileChecksum(const std::uint8_t* data, std::size_t n) { return checksumImpl(data, n); }
+std::uint64_t graphFileChecksum(const std::uint8_t* data, std::size_t n) {
+  return checksumImpl(data, n);
+}
 
 void resealGraphFile(std::vector<std::uint8_t>& f) {
   if (f.size() < sizeof(Header)) return;
@@ -99,7 +103,8 @@ std::vector<std::uint8_t> serializeGraph(const DelaunayGraph& g) {
   appendArray(out, g.originals);
   h.payload_bytes = out.size() - sizeof(Header);
   h.payload_checksum = checksumImpl(out.data() + sizeof(Header), h.payload_bytes);
-  h.header_checksum = checksumImpl(reinterpret_cast<const std::uint8_t*>(&h), offsetof(Header, header_checksum));
+  h.header_checksum =
+      checksumImpl(reinterpret_cast<const std::uint8_t*>(&h), offsetof(Header, header_checksum));
   std::memcpy(out.data(), &h, sizeof(Header));
   return out;
 }
@@ -118,7 +123,8 @@ DelaunayGraph deserializeGraph(const std::uint8_t* data, std::size_t size) {
   Header h;
   std::memcpy(&h, data, sizeof(Header));
   if (std::memcmp(h.magic, kMagic, 8) != 0) fail("not a pcl_delaunay_walk graph (magic mismatch)");
-  if (h.header_checksum != checksumImpl(data, offsetof(Header, header_checksum))) fail("header checksum mismatch");
+  if (h.header_checksum != checksumImpl(data, offsetof(Header, header_checksum)))
+    fail("header checksum mismatch");
   if (h.version != kGraphFileVersion)
     fail("version " + std::to_string(h.version) + " is not supported (this build reads version " +
          std::to_string(kGraphFileVersion) + ")");
@@ -136,7 +142,8 @@ DelaunayGraph deserializeGraph(const std::uint8_t* data, std::size_t size) {
     fail("truncated or padded: payload is " + std::to_string(size - sizeof(Header)) + " bytes, header says " +
          std::to_string(h.payload_bytes) + ", arrays need " + std::to_string(expect));
   const std::uint8_t* p = data + sizeof(Header);
-  if (h.payload_checksum != checksumImpl(p, h.payload_bytes)) fail("payload checksum mismatch (corrupt file)");
+  if (h.payload_checksum != checksumImpl(p, h.payload_bytes))
+    fail("payload checksum mismatch (corrupt file)");
 
   DelaunayGraph g;
   g.dimension = static_cast<int>(h.dimension);

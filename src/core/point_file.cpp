@@ -49,7 +49,8 @@ std::vector<double> readPointsXyz(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   if (!f) fail(path, "cannot open");
   std::string line;
-  if (!std::getline(f, line) || line.rfind("ply", 0) != 0) fail(path, "not a PLY file (supported: .ply, KITTI .bin)");
+  if (!std::getline(f, line) || line.rfind("ply", 0) != 0)
+    fail(path, "not a PLY file (supported: .ply, KITTI .bin)");
   bool ascii = false, in_vertex = false, seen_format = false;
   std::size_t count = 0, stride = 0, nprops = 0;
   int xi = -1, yi = -1, zi = -1;
@@ -63,16 +64,20 @@ std::vector<double> readPointsXyz(const std::string& path) {
     if (kw == "format") {
       std::string fmt;
       ss >> fmt;
-      if (fmt == "ascii") ascii = true;
-      else if (fmt != "binary_little_endian") fail(path, "unsupported PLY format '" + fmt + "'");
+      if (fmt == "ascii")
+        ascii = true;
+      else if (fmt != "binary_little_endian")
+        fail(path, "unsupported PLY format '" + fmt + "'");
       seen_format = true;
     } else if (kw == "element") {
       std::string name;
       std::size_t n = 0;
       ss >> name >> n;
       if (in_vertex && name != "vertex") in_vertex = false;
-      if (name == "vertex") in_vertex = true, count = n;
-      else in_vertex = false;
+      if (name == "vertex")
+        in_vertex = true, count = n;
+      else
+        in_vertex = false;
     } else if (kw == "property" && in_vertex) {
       std::string type, name;
       ss >> type >> name;
@@ -125,7 +130,8 @@ std::vector<double> readPointsXyz(const std::string& path) {
       return v;
     };
     for (std::size_t i = 0; i < count; ++i) {
-      if (!f.read(rec.data(), static_cast<std::streamsize>(stride))) fail(path, "truncated at vertex " + std::to_string(i));
+      if (!f.read(rec.data(), static_cast<std::streamsize>(stride)))
+        fail(path, "truncated at vertex " + std::to_string(i));
       xyz.insert(xyz.end(), {get(xi), get(yi), get(zi)});
     }
   }

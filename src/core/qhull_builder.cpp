@@ -6,11 +6,11 @@
 // they are degenerate within that distance, where the choice of diagonal is a tie (both walks stay exact
 // to float resolution). The input is centred by the caller (raw UTM coordinates made Qhull run past
 // 200 s and drop points), and every point must come back as a vertex, or we throw.
-#include "pcl_delaunay_walk/core/graph_builder.h"
-
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+
+#include "pcl_delaunay_walk/core/graph_builder.h"
 
 #ifdef DW_HAVE_QHULL
 extern "C" {
@@ -118,8 +118,8 @@ EdgeList qhullDelaunayEdges(const std::vector<Vec3f>& points, int dim, const dou
   std::size_t missing = 0;
   for (char s : seen) missing += s == 0;
   if (missing > 0)
-    throw Error("pcl_delaunay_walk: Qhull returned " + std::to_string(n - missing) + " of " + std::to_string(n) +
-                " points as Delaunay vertices; refusing an incomplete graph");
+    throw Error("pcl_delaunay_walk: Qhull returned " + std::to_string(n - missing) + " of " +
+                std::to_string(n) + " points as Delaunay vertices; refusing an incomplete graph");
   return edges;
 #endif
 }

@@ -22,8 +22,8 @@ struct Case {
 void checkExact(const std::vector<double>& xyz, const std::string& name, std::size_t num_queries = 60,
                 BuilderType builder = BuilderType::Auto) {
   SCOPED_TRACE(name);
-  auto g = std::make_shared<DelaunayGraph>(buildDelaunayGraph(PointView::fromDouble(xyz.data(), xyz.size() / 3),
-                                                              BuildOptions{builder, 0, {}}));
+  auto g = std::make_shared<DelaunayGraph>(
+      buildDelaunayGraph(PointView::fromDouble(xyz.data(), xyz.size() / 3), BuildOptions{builder, 0, {}}));
   ASSERT_NO_THROW(g->validate());
   NeighbourSearch search(g);
   std::size_t finite = 0;
@@ -32,7 +32,8 @@ void checkExact(const std::vector<double>& xyz, const std::string& name, std::si
     bool ok = std::isfinite(xyz[3 * i]) && std::isfinite(xyz[3 * i + 1]) && std::isfinite(xyz[3 * i + 2]);
     if (!ok) continue;
     ++finite;
-    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], xyz[3 * i + a]), hi[a] = std::max(hi[a], xyz[3 * i + a]);
+    for (int a = 0; a < 3; ++a)
+      lo[a] = std::min(lo[a], xyz[3 * i + a]), hi[a] = std::max(hi[a], xyz[3 * i + a]);
   }
   ASSERT_EQ(g->originals.size(), finite);
   if (finite == 0) {
@@ -53,15 +54,16 @@ void checkExact(const std::vector<double>& xyz, const std::string& name, std::si
     Vec3f q;
     if (qn % 3 == 0) {  // exactly on an input point
       std::size_t i = pick(rng);
-      if (!std::isfinite(xyz[3 * i]) || !std::isfinite(xyz[3 * i + 1]) || !std::isfinite(xyz[3 * i + 2])) continue;
+      if (!std::isfinite(xyz[3 * i]) || !std::isfinite(xyz[3 * i + 1]) || !std::isfinite(xyz[3 * i + 2]))
+        continue;
       q = g->toLocal(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
     } else {
       q = g->toLocal(lo[0] + u(rng) * (hi[0] - lo[0]), lo[1] + u(rng) * (hi[1] - lo[1]),
                      lo[2] + u(rng) * (hi[2] - lo[2]) + (qn % 5 == 0 ? ext : 0.0));
     }
     const auto all = allDistances(*g, xyz, q);
-    for (StartStrategy s : {StartStrategy::Zero, StartStrategy::KdAnn, StartStrategy::Pnn,
-                            StartStrategy::PnnOptimized}) {
+    for (StartStrategy s :
+         {StartStrategy::Zero, StartStrategy::KdAnn, StartStrategy::Pnn, StartStrategy::PnnOptimized}) {
       const index_t hint = static_cast<index_t>(qn * 7919 % g->numVertices());
       const WalkResult r = search.nearest(q, s, hint);
       ASSERT_NE(r.vertex, kInvalidIndex);
@@ -98,7 +100,9 @@ void checkExact(const std::vector<double>& xyz, const std::string& name, std::si
 
 }  // namespace
 
-TEST(Exactness, UniformRandom3D) { checkExact(uniformCube(3000, 1), "uniform 3000"); }
+TEST(Exactness, UniformRandom3D) {
+  checkExact(uniformCube(3000, 1), "uniform 3000");
+}
 
 TEST(Exactness, SphereSurface) {
   std::mt19937 rng(3);
@@ -153,7 +157,8 @@ TEST(Exactness, Collinear) {
 }
 
 TEST(Exactness, TinySets) {
-  for (std::size_t n = 0; n <= 12; ++n) checkExact(uniformCube(n, 100 + unsigned(n)), "n=" + std::to_string(n));
+  for (std::size_t n = 0; n <= 12; ++n)
+    checkExact(uniformCube(n, 100 + unsigned(n)), "n=" + std::to_string(n));
 }
 
 TEST(Exactness, DuplicatesAndNaN) {
@@ -169,7 +174,8 @@ TEST(Exactness, DuplicatesAndNaN) {
   checkExact(xyz, "duplicates + NaN/Inf");
   const auto g = buildDelaunayGraph(PointView::fromDouble(xyz.data(), xyz.size() / 3));
   EXPECT_EQ(g.numVertices(), n);
-  for (std::size_t i = xyz.size() / 3 - 4; i < xyz.size() / 3; ++i) EXPECT_EQ(g.input_to_vertex[i], kInvalidIndex);
+  for (std::size_t i = xyz.size() / 3 - 4; i < xyz.size() / 3; ++i)
+    EXPECT_EQ(g.input_to_vertex[i], kInvalidIndex);
 }
 
 TEST(Exactness, AllDuplicatesAndAllNaN) {
@@ -206,8 +212,8 @@ TEST(Exactness, QuantisedLasLikeTerrain) {
 
 TEST(Exactness, RealClouds) {
   int ran = 0;
-  for (const char* f : {"models/bun_zipper_res3.ply", "models/dragon_vrip_res4.ply", "models/teapot_points.ply",
-                        "models/bun_zipper_res2.ply"}) {
+  for (const char* f : {"models/bun_zipper_res3.ply", "models/dragon_vrip_res4.ply",
+                        "models/teapot_points.ply", "models/bun_zipper_res2.ply"}) {
     const std::string path = sharedData(f);
     if (!exists(path)) continue;
     checkExact(readPointsXyz(path), f, 40);

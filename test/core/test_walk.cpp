@@ -10,7 +10,8 @@ TEST(Walk, PnnHintFromPreviousIterationTakesFewSteps) {
   // ICP-like: queries move a little between rounds; walking from the previous answer takes ~1-2 steps,
   // far fewer than from the Zero vertex.
   const auto xyz = dw_test::uniformCube(20000, 31);
-  auto g = std::make_shared<DelaunayGraph>(buildDelaunayGraph(PointView::fromDouble(xyz.data(), xyz.size() / 3)));
+  auto g =
+      std::make_shared<DelaunayGraph>(buildDelaunayGraph(PointView::fromDouble(xyz.data(), xyz.size() / 3)));
   NeighbourSearch s(g);
   std::mt19937 rng(2);
   std::normal_distribution<float> jitter(0.f, 0.005f);
@@ -59,7 +60,8 @@ TEST(Walk, TerminatesOnEquidistantTies) {
   for (int x = 0; x < 6; ++x)
     for (int y = 0; y < 6; ++y)
       for (int z = 0; z < 6; ++z) xyz.insert(xyz.end(), {double(x), double(y), double(z)});
-  auto g = std::make_shared<DelaunayGraph>(buildDelaunayGraph(PointView::fromDouble(xyz.data(), xyz.size() / 3)));
+  auto g =
+      std::make_shared<DelaunayGraph>(buildDelaunayGraph(PointView::fromDouble(xyz.data(), xyz.size() / 3)));
   NeighbourSearch s(g);
   const Vec3f q = g->toLocal(2.5, 2.5, 2.5);
   for (StartStrategy st : {StartStrategy::Zero, StartStrategy::KdAnn})
@@ -67,7 +69,8 @@ TEST(Walk, TerminatesOnEquidistantTies) {
 }
 
 TEST(StartStrategy, ParseAndPrint) {
-  for (StartStrategy s : {StartStrategy::Zero, StartStrategy::KdAnn, StartStrategy::Pnn, StartStrategy::PnnOptimized})
+  for (StartStrategy s :
+       {StartStrategy::Zero, StartStrategy::KdAnn, StartStrategy::Pnn, StartStrategy::PnnOptimized})
     EXPECT_EQ(parseStartStrategy(toString(s)), s);
   EXPECT_EQ(parseStartStrategy("KD_ANN"), StartStrategy::KdAnn);
   EXPECT_THROW(parseStartStrategy("nearest"), Error);

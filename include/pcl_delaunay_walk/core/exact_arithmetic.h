@@ -20,7 +20,9 @@ inline void twoSum(double a, double b, double& s, double& e) {
 }
 
 /// a - b = s + e exactly.
-inline void twoDiff(double a, double b, double& s, double& e) { twoSum(a, -b, s, e); }
+inline void twoDiff(double a, double b, double& s, double& e) {
+  twoSum(a, -b, s, e);
+}
 
 /// a * b = p + e exactly (the fused multiply-add gives the rounding error directly).
 inline void twoProduct(double a, double b, double& p, double& e) {
@@ -62,7 +64,7 @@ inline std::size_t scale(std::size_t elen, const double* e, double b, double* h)
     twoProduct(e[i], b, p1, p0);
     twoSum(q, p0, s, t);
     if (t != 0.0) h[hl++] = t;
-    twoSum(p1, s, q, t);  // p1 and s do not overlap in a way that loses bits: fast-two-sum suffices,
+    twoSum(p1, s, q, t);        // p1 and s do not overlap in a way that loses bits: fast-two-sum suffices,
     if (t != 0.0) h[hl++] = t;  // the plain twoSum is used for safety.
   }
   if (q != 0.0 || hl == 0) h[hl++] = q;

@@ -24,7 +24,7 @@ using ProgressCallback = std::function<void(const std::string& stage, double fra
 
 struct BuildOptions {
   BuilderType builder = BuilderType::Auto;
-  unsigned num_threads = 0;  ///< 0: hardware concurrency
+  unsigned num_threads = 0;   ///< 0: hardware concurrency
   ProgressCallback progress;  ///< optional; called from the building thread
 };
 

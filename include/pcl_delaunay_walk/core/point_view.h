@@ -11,14 +11,15 @@ namespace dw {
 
 struct PointView {
   const void* data = nullptr;
-  std::size_t size = 0;         ///< number of points
-  std::size_t stride = 0;       ///< bytes between consecutive points
-  bool is_double = false;       ///< components are double (LAS) rather than float (PCL)
+  std::size_t size = 0;    ///< number of points
+  std::size_t stride = 0;  ///< bytes between consecutive points
+  bool is_double = false;  ///< components are double (LAS) rather than float (PCL)
 
   static PointView fromFloat(const float* xyz, std::size_t n, std::size_t stride_bytes = 3 * sizeof(float)) {
     return {xyz, n, stride_bytes, false};
   }
-  static PointView fromDouble(const double* xyz, std::size_t n, std::size_t stride_bytes = 3 * sizeof(double)) {
+  static PointView fromDouble(const double* xyz, std::size_t n,
+                              std::size_t stride_bytes = 3 * sizeof(double)) {
     return {xyz, n, stride_bytes, true};
   }
 

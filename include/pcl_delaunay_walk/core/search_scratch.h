@@ -16,7 +16,8 @@ namespace dw {
 struct SearchScratch {
   std::vector<std::uint32_t> stamp;
   std::uint32_t epoch = 0;
-  std::vector<std::pair<double, index_t>> heap;  ///< min-heap of (dist2, vertex); double orders far queries exactly
+  std::vector<std::pair<double, index_t>>
+      heap;  ///< min-heap of (dist2, vertex); double orders far queries exactly
 
   /// Starts a query over a graph of n vertices.
   void begin(std::size_t n) {

@@ -20,8 +20,12 @@ struct Vec3f {
   float x, y, z;
 };
 
-inline float dot(const Vec3f& a, const Vec3f& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline Vec3f operator-(const Vec3f& a, const Vec3f& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline float dot(const Vec3f& a, const Vec3f& b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+inline Vec3f operator-(const Vec3f& a, const Vec3f& b) {
+  return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
 inline float squaredDistance(const Vec3f& a, const Vec3f& b) {
   const Vec3f d = a - b;
   return dot(d, d);

@@ -56,8 +56,10 @@ inline WalkResult walk(const DelaunayGraph& g, const Vec3f& q, index_t start) {
     double next_d2 = d2;
     if (best != kInvalidIndex) {
       const double db = squaredDistanceD(q, g.points[best]);
-      if (db < d2) next = best, next_d2 = db;
-      else uncertain = true;  // float and double disagree: a rounding tie, settle it in double
+      if (db < d2)
+        next = best, next_d2 = db;
+      else
+        uncertain = true;  // float and double disagree: a rounding tie, settle it in double
     }
     if (next == kInvalidIndex && uncertain) {
       for (const EdgeRecord* e = first; e != end; ++e) {
