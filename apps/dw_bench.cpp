@@ -20,6 +20,8 @@
 #define DW_HAVE_NANOFLANN 1  // the apps target does not probe for it; the header is all it needs
 #endif
 
+#include <pcl/registration/icp.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
@@ -28,14 +30,11 @@
 #include <set>
 #include <sstream>
 
-#include <pcl/registration/icp.h>
-
+#include "../bench/common/icp_estimators.h"
+#include "../bench/common/query_replay.h"
 #include "pcl_delaunay_walk/registration/correspondence_estimation_delaunay_walk.h"
 #include "pcl_delaunay_walk/search/delaunay_walk.h"
 #include "pcl_delaunay_walk/search/kdtree_delaunay_walk.h"
-
-#include "../bench/common/icp_estimators.h"
-#include "../bench/common/query_replay.h"
 
 namespace {
 
@@ -69,16 +68,18 @@ std::vector<std::string> split(const std::string& s) {
 }
 
 void usage() {
-  std::cout <<
-      "usage: dw_bench [--quick] [--out DIR] [--datasets a,b] [--methods a,b] [--rotations grid|axes|one]\n"
-      "                [--noise 0,1] [--noise-sigma REL] [--max-iterations N] [--threads 1,2]\n"
-      "                [--nn-iterations N] [--repeats N] [--sections build,nn,icp,accept]\n"
-      "                [--accept-dataset NAME]\n"
-      "data sets: teapot-792 dragon-5k bunny-8k dragon-23k bunny-36k lidar-69k dragon-100k dragon-437k\n"
-      "           (suffix :half keeps every second point); methods: brute-force pcl-kdtree nanoflann\n"
-      "           pcl-octree walk-zero walk-kd-ann walk-pnn walk-pnn-optimized walk-pnn-prefetch\n"
-      "           walk-pnn-optimized-prefetch dw-estimator (walks take @qhull or @incremental for the builder)\n"
-      "--quick: small data sets, one rotation, 1 repeat, acceptance on dragon-100k (a few minutes)\n";
+  std::cout
+      << "usage: dw_bench [--quick] [--out DIR] [--datasets a,b] [--methods a,b] [--rotations "
+         "grid|axes|one]\n"
+         "                [--noise 0,1] [--noise-sigma REL] [--max-iterations N] [--threads 1,2]\n"
+         "                [--nn-iterations N] [--repeats N] [--sections build,nn,icp,accept]\n"
+         "                [--accept-dataset NAME]\n"
+         "data sets: teapot-792 dragon-5k bunny-8k dragon-23k bunny-36k lidar-69k dragon-100k dragon-437k\n"
+         "           (suffix :half keeps every second point); methods: brute-force pcl-kdtree nanoflann\n"
+         "           pcl-octree walk-zero walk-kd-ann walk-pnn walk-pnn-optimized walk-pnn-prefetch\n"
+         "           walk-pnn-optimized-prefetch dw-estimator (walks take @qhull or @incremental for the "
+         "builder)\n"
+         "--quick: small data sets, one rotation, 1 repeat, acceptance on dragon-100k (a few minutes)\n";
 }
 
 Options parse(int argc, char** argv) {
@@ -95,7 +96,8 @@ Options parse(int argc, char** argv) {
       quick = true;
       continue;
     }
-    if (a.rfind("--", 0) != 0 || i + 1 >= argc) throw dw::Error("dw_bench: bad argument '" + a + "' (see --help)");
+    if (a.rfind("--", 0) != 0 || i + 1 >= argc)
+      throw dw::Error("dw_bench: bad argument '" + a + "' (see --help)");
     kv[a.substr(2)] = argv[++i];
   }
   if (quick) {
@@ -116,25 +118,35 @@ Options parse(int argc, char** argv) {
     }
   };
   for (const auto& [k, v] : kv) {
-    if (k == "out") o.out = v;
-    else if (k == "datasets") o.datasets = split(v);
-    else if (k == "methods") o.methods = split(v);
-    else if (k == "rotations") o.rotations = v;
+    if (k == "out")
+      o.out = v;
+    else if (k == "datasets")
+      o.datasets = split(v);
+    else if (k == "methods")
+      o.methods = split(v);
+    else if (k == "rotations")
+      o.rotations = v;
     else if (k == "noise") {
       o.noise.clear();
       for (const auto& s : split(v)) o.noise.push_back(int(num(k, s)));
-    } else if (k == "noise-sigma") o.noise_sigma = num(k, v);
-    else if (k == "max-iterations") o.max_iterations = int(num(k, v));
+    } else if (k == "noise-sigma")
+      o.noise_sigma = num(k, v);
+    else if (k == "max-iterations")
+      o.max_iterations = int(num(k, v));
     else if (k == "threads") {
       o.threads.clear();
       for (const auto& s : split(v)) o.threads.push_back(unsigned(num(k, s)));
-    } else if (k == "nn-iterations") o.nn_iterations = int(num(k, v));
-    else if (k == "repeats") o.repeats = int(num(k, v));
+    } else if (k == "nn-iterations")
+      o.nn_iterations = int(num(k, v));
+    else if (k == "repeats")
+      o.repeats = int(num(k, v));
     else if (k == "sections") {
       const auto s = split(v);
       o.sections = std::set<std::string>(s.begin(), s.end());
-    } else if (k == "accept-dataset") o.accept_dataset = v;
-    else throw dw::Error("dw_bench: unknown option --" + k + " (see --help)");
+    } else if (k == "accept-dataset")
+      o.accept_dataset = v;
+    else
+      throw dw::Error("dw_bench: unknown option --" + k + " (see --help)");
   }
   if (o.methods.empty()) {
     o.methods = dwb::allMethodNames();
@@ -196,8 +208,10 @@ Built buildAll(const std::vector<float>& xyz, const std::vector<std::string>& na
     std::shared_ptr<dwb::NnMethod> m = dwb::makeMethod(name);
     auto* walk = dynamic_cast<dwb::WalkNn*>(m.get());
     const auto t0 = dwb::Clock::now();
-    if (walk && first_walk) walk->shareGraph(*first_walk);
-    else m->build(xyz);
+    if (walk && first_walk)
+      walk->shareGraph(*first_walk);
+    else
+      m->build(xyz);
     // Every walk variant stands on the one graph: each is charged its build, as a user would pay it.
     b.build_seconds[name] = walk && first_walk ? b.build_seconds[first_walk->name()] : dwb::secondsSince(t0);
     if (walk && !first_walk) first_walk = std::static_pointer_cast<dwb::WalkNn>(m);
@@ -244,7 +258,8 @@ void sectionNn(const Options& o, const dwb::Dataset& d, const Built& built, Csv&
   const std::string ref_name = reference(d.size());
   auto ref_it = built.methods.find(ref_name);
   std::shared_ptr<dwb::NnMethod> ref;
-  if (ref_it != built.methods.end()) ref = ref_it->second;
+  if (ref_it != built.methods.end())
+    ref = ref_it->second;
   else {
     ref = dwb::makeMethod(ref_name);
     ref->build(d.xyz);
@@ -254,7 +269,8 @@ void sectionNn(const Options& o, const dwb::Dataset& d, const Built& built, Csv&
   dwb::NnBatch batch;
   std::vector<std::vector<int>> want, got;
   replay.run(*ref, batch, 1, nullptr, &want);
-  std::cout << "  nn: " << replay.iterations.size() << " ICP iterations x " << replay.per_iteration << " queries\n";
+  std::cout << "  nn: " << replay.iterations.size() << " ICP iterations x " << replay.per_iteration
+            << " queries\n";
   for (const auto& [name, m] : built.methods) {
     std::vector<std::uint32_t> steps;
     replay.run(*m, batch, 1, &steps, &got);
@@ -285,12 +301,12 @@ void sectionNn(const Options& o, const dwb::Dataset& d, const Built& built, Csv&
       const double c = *std::min_element(cpu.begin(), cpu.end());
       const double ns = s * 1e9 / double(replay.numQueries());
       const double ns_cpu = c * 1e9 / double(replay.numQueries());
-      nn_csv.row(d.name, d.size(), name, threads, replay.numQueries(), replay.iterations.size(), s, ns, ns_cpu,
-                 m->isWalk() ? mean_steps : -1.0, m->isWalk() ? mean_steps + 1.0 : -1.0, m->isWalk() ? p99 : -1.0,
-                 m->isWalk() ? max_steps : -1.0, wrong, ref_name);
+      nn_csv.row(d.name, d.size(), name, threads, replay.numQueries(), replay.iterations.size(), s, ns,
+                 ns_cpu, m->isWalk() ? mean_steps : -1.0, m->isWalk() ? mean_steps + 1.0 : -1.0,
+                 m->isWalk() ? p99 : -1.0, m->isWalk() ? max_steps : -1.0, wrong, ref_name);
       std::cout << "  nn " << name << " x" << threads << ": " << ns << " ns/query (cpu " << ns_cpu << ")"
-                << (m->isWalk() ? ", mean walk " + std::to_string(mean_steps) : std::string()) << ", wrong " << wrong
-                << "\n";
+                << (m->isWalk() ? ", mean walk " + std::to_string(mean_steps) : std::string()) << ", wrong "
+                << wrong << "\n";
     }
   }
 }
@@ -305,7 +321,8 @@ struct IcpRun {
 /// One align() of stock ICP with the named NN method plugged in. Structures are prebuilt (their build
 /// time is reported on its own), so this is the registration time proper.
 IcpRun runIcp(const std::string& method, const Built& built, pcl::search::DelaunayWalk<PointT>::Ptr walk,
-              const Cloud::Ptr& source, const Cloud::Ptr& target, const Eigen::Matrix4d& truth, int max_iterations) {
+              const Cloud::Ptr& source, const Cloud::Ptr& target, const Eigen::Matrix4d& truth,
+              int max_iterations) {
   dwb::IterationClock clock;
   pcl::IterativeClosestPoint<PointT, PointT, float> icp;
   dwb::configureIcp(icp, max_iterations);
@@ -390,13 +407,14 @@ void sectionIcp(const Options& o, const dwb::Dataset& d, Csv& run_csv, Csv& iter
         if (!usable(name, d.size())) continue;
         const IcpRun r = runIcp(name, built, walk, source, target, truth, o.max_iterations);
         const double build = name == "dw-estimator" ? walk_build : built.build_seconds.at(name);
-        run_csv.row(d.name, d.size(), noisy, rot.label(), name, r.iterations, r.converged ? 1 : 0, r.align, r.nn, r.svd,
-                    r.align - r.nn - r.svd, build, r.rot_err, r.trans_err, r.cpu);
+        run_csv.row(d.name, d.size(), noisy, rot.label(), name, r.iterations, r.converged ? 1 : 0, r.align,
+                    r.nn, r.svd, r.align - r.nn - r.svd, build, r.rot_err, r.trans_err, r.cpu);
         if (ri == 0)
           for (std::size_t i = 0; i < r.iter_seconds.size(); ++i)
             iter_csv.row(d.name, noisy, rot.label(), name, i, r.iter_seconds[i], r.iter_nn[i], r.iter_svd[i]);
         std::cout << "  icp " << (noisy ? "noisy " : "") << rot.label() << " " << name << ": " << r.iterations
-                  << " it, " << r.align * 1e3 << " ms (nn " << r.nn * 1e3 << "), rot err " << r.rot_err << " deg\n";
+                  << " it, " << r.align * 1e3 << " ms (nn " << r.nn * 1e3 << "), rot err " << r.rot_err
+                  << " deg\n";
       }
     }
   }
@@ -404,7 +422,8 @@ void sectionIcp(const Options& o, const dwb::Dataset& d, Csv& run_csv, Csv& iter
 
 void sectionAccept(const Options& o, Csv& csv) {
   const dwb::Dataset d = dwb::loadDataset(o.accept_dataset);
-  std::cout << "== acceptance on " << d.name << " (" << d.size() << " points), rotation r10p10y10, 1 thread\n";
+  std::cout << "== acceptance on " << d.name << " (" << d.size()
+            << " points), rotation r10p10y10, 1 thread\n";
   const Eigen::Matrix4d m = dwb::Rotation{10, 10, 10}.about(dwb::centroid(d.xyz));
   const Cloud::Ptr target = dwb::toCloud(d.xyz);
   const Cloud::Ptr source = dwb::toCloud(dwb::transformed(d.xyz, m));
@@ -466,14 +485,15 @@ void sectionAccept(const Options& o, Csv& csv) {
   auto least = [](const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); };
   const double sc = least(stock_cpu), wc = least(ours_cpu), bc = least(builds_cpu);
   csv.row(d.name, d.size(), "stock-icp-kdtree", s, 0.0, stock_it, 0, sc, 0.0);
-  csv.row(d.name, d.size(), "icp-walk-estimator-excl-build", w, 0.0, ours_it, walk->getNumberOfBuilds(), wc, 0.0);
-  csv.row(d.name, d.size(), "icp-walk-estimator-incl-build", w + build, build, ours_it, walk->getNumberOfBuilds(),
-          wc + bc, bc);
+  csv.row(d.name, d.size(), "icp-walk-estimator-excl-build", w, 0.0, ours_it, walk->getNumberOfBuilds(), wc,
+          0.0);
+  csv.row(d.name, d.size(), "icp-walk-estimator-incl-build", w + build, build, ours_it,
+          walk->getNumberOfBuilds(), wc + bc, bc);
   std::cout << "  stock ICP (KdTree) " << s << " s (" << stock_it << " it); with walk estimator " << w
             << " s excl. build (" << s / w << "x), " << w + build << " s incl. build (" << s / (w + build)
-            << "x); graph builds by the shared walk: " << walk->getNumberOfBuilds() << "\n  CPU time: stock " << sc
-            << " s, walk " << wc << " s excl. build (" << sc / wc << "x), " << wc + bc << " s incl. build ("
-            << sc / (wc + bc) << "x)\n";
+            << "x); graph builds by the shared walk: " << walk->getNumberOfBuilds() << "\n  CPU time: stock "
+            << sc << " s, walk " << wc << " s excl. build (" << sc / wc << "x), " << wc + bc
+            << " s incl. build (" << sc / (wc + bc) << "x)\n";
 }
 
 std::string cpuModel() {
@@ -490,7 +510,8 @@ int main(int argc, char** argv) {
   try {
     std::cout << std::unitbuf;  // progress shows up in logs as it happens
     const Options o = parse(argc, argv);
-    if (std::system(("mkdir -p '" + o.out + "'").c_str()) != 0) throw dw::Error("dw_bench: cannot create " + o.out);
+    if (std::system(("mkdir -p '" + o.out + "'").c_str()) != 0)
+      throw dw::Error("dw_bench: cannot create " + o.out);
     {
       Csv meta(o.out + "/meta.csv", "key,value");
       meta.row("cpu", "\"" + cpuModel() + "\"");
@@ -506,17 +527,19 @@ int main(int argc, char** argv) {
     if (o.sections.count("build"))
       build_csv = std::make_unique<Csv>(o.out + "/build.csv", "dataset,points,method,seconds,bytes");
     if (o.sections.count("nn")) {
-      nn_csv = std::make_unique<Csv>(o.out + "/nn.csv",
-                                     "dataset,points,method,threads,queries,icp_iterations,seconds,ns_per_query,cpu_ns_per_query,"
-                                     "mean_steps,mean_visited,p99_steps,max_steps,wrong,reference");
+      nn_csv = std::make_unique<Csv>(
+          o.out + "/nn.csv",
+          "dataset,points,method,threads,queries,icp_iterations,seconds,ns_per_query,cpu_ns_per_query,"
+          "mean_steps,mean_visited,p99_steps,max_steps,wrong,reference");
       hist_csv = std::make_unique<Csv>(o.out + "/walk_hist.csv", "dataset,method,steps,count");
     }
     if (o.sections.count("icp")) {
-      icp_csv = std::make_unique<Csv>(o.out + "/icp.csv",
-                                      "dataset,points,noise,rotation,method,iterations,converged,align_seconds,"
-                                      "nn_seconds,svd_seconds,other_seconds,build_seconds,rot_err_deg,trans_err,cpu_seconds");
-      iter_csv = std::make_unique<Csv>(o.out + "/icp_iter.csv",
-                                       "dataset,noise,rotation,method,iteration,seconds,nn_seconds,svd_seconds");
+      icp_csv = std::make_unique<Csv>(
+          o.out + "/icp.csv",
+          "dataset,points,noise,rotation,method,iterations,converged,align_seconds,"
+          "nn_seconds,svd_seconds,other_seconds,build_seconds,rot_err_deg,trans_err,cpu_seconds");
+      iter_csv = std::make_unique<Csv>(
+          o.out + "/icp_iter.csv", "dataset,noise,rotation,method,iteration,seconds,nn_seconds,svd_seconds");
     }
     if (any_data) {
       for (const auto& name : o.datasets) {
@@ -531,7 +554,9 @@ int main(int argc, char** argv) {
       }
     }
     if (o.sections.count("accept")) {
-      accept_csv = std::make_unique<Csv>(o.out + "/accept.csv", "dataset,points,variant,seconds,build_seconds,iterations,graph_builds,cpu_seconds,cpu_build_seconds");
+      accept_csv = std::make_unique<Csv>(o.out + "/accept.csv",
+                                         "dataset,points,variant,seconds,build_seconds,iterations,graph_"
+                                         "builds,cpu_seconds,cpu_build_seconds");
       sectionAccept(o, *accept_csv);
     }
     std::cout << "results in " << o.out << "/\n";

@@ -4,6 +4,9 @@
 //
 // The graph is built from the cloud's float coordinates exactly as pcl::search::DelaunayWalk reads
 // them, so the file can be given to DelaunayWalk::loadGraph / dw_icp --graph for the same cloud.
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_types.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -12,9 +15,6 @@
 #include <string>
 #include <vector>
 
-#include <pcl/io/pcd_io.h>
-#include <pcl/point_types.h>
-
 #include "pcl_delaunay_walk/core/graph_builder.h"
 #include "pcl_delaunay_walk/core/graph_io.h"
 #include "pcl_delaunay_walk/core/point_file.h"
@@ -22,7 +22,9 @@
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
 
 bool endsWith(const std::string& s, const std::string& e) {
   return s.size() >= e.size() && s.compare(s.size() - e.size(), e.size(), e) == 0;
@@ -69,9 +71,12 @@ int main(int argc, char** argv) {
       output = value();
     } else if (a == "--builder") {
       const std::string b = value();
-      if (b == "auto") options.builder = dw::BuilderType::Auto;
-      else if (b == "qhull") options.builder = dw::BuilderType::Qhull;
-      else if (b == "incremental") options.builder = dw::BuilderType::Incremental;
+      if (b == "auto")
+        options.builder = dw::BuilderType::Auto;
+      else if (b == "qhull")
+        options.builder = dw::BuilderType::Qhull;
+      else if (b == "incremental")
+        options.builder = dw::BuilderType::Incremental;
       else {
         std::fprintf(stderr, "dw_graph: unknown builder '%s'\n", b.c_str());
         return 2;
@@ -102,7 +107,8 @@ int main(int argc, char** argv) {
     const auto t_load = Clock::now();
     const auto cloud = loadCloud(input);
     const double load_s = since(t_load);
-    std::printf("input        %s\npoints       %zu (loaded in %.3f s)\n", input.c_str(), cloud.size(), load_s);
+    std::printf("input        %s\npoints       %zu (loaded in %.3f s)\n", input.c_str(), cloud.size(),
+                load_s);
     // Progress on large inputs only: a line per stage and per 10%, on stderr so stdout stays parseable.
     if (!quiet && cloud.size() >= 200000) {
       options.progress = [last = std::string(), tenth = -1](const std::string& stage, double f) mutable {
@@ -115,11 +121,11 @@ int main(int argc, char** argv) {
       };
     }
     const auto t_build = Clock::now();
-    const dw::DelaunayGraph g = cloud.empty()
-                                    ? dw::buildDelaunayGraph(dw::PointView::fromFloat(nullptr, 0), options)
-                                    : dw::buildDelaunayGraph(
-                                          dw::PointView::fromFloat(&cloud[0].x, cloud.size(), sizeof(pcl::PointXYZ)),
-                                          options);
+    const dw::DelaunayGraph g =
+        cloud.empty()
+            ? dw::buildDelaunayGraph(dw::PointView::fromFloat(nullptr, 0), options)
+            : dw::buildDelaunayGraph(
+                  dw::PointView::fromFloat(&cloud[0].x, cloud.size(), sizeof(pcl::PointXYZ)), options);
     const double build_s = since(t_build);
     const auto t_save = Clock::now();
     dw::saveGraph(g, output);
@@ -130,15 +136,18 @@ int main(int argc, char** argv) {
     std::vector<std::size_t> deg(g.numVertices());
     for (std::size_t v = 0; v < deg.size(); ++v) deg[v] = g.degree(static_cast<dw::index_t>(v));
     std::sort(deg.begin(), deg.end());
-    auto pct = [&](double p) { return deg.empty() ? 0 : deg[std::min(deg.size() - 1, std::size_t(p * deg.size()))]; };
+    auto pct = [&](double p) {
+      return deg.empty() ? 0 : deg[std::min(deg.size() - 1, std::size_t(p * deg.size()))];
+    };
     const double mean = deg.empty() ? 0.0 : double(g.numDirectedEdges()) / double(deg.size());
     std::printf("non-finite   %zu (skipped)\n", skipped);
     std::printf("vertices     %zu (%zu duplicate points collapsed)\n", g.numVertices(),
                 cloud.size() - skipped - g.numVertices());
     std::printf("dimension    %d\n", g.dimension);
-    std::printf("edges        %zu undirected (%zu directed records)\n", g.numDirectedEdges() / 2, g.numDirectedEdges());
-    std::printf("degree       min %zu  median %zu  mean %.2f  p99 %zu  max %zu\n", deg.empty() ? 0 : deg.front(),
-                pct(0.5), mean, pct(0.99), deg.empty() ? 0 : deg.back());
+    std::printf("edges        %zu undirected (%zu directed records)\n", g.numDirectedEdges() / 2,
+                g.numDirectedEdges());
+    std::printf("degree       min %zu  median %zu  mean %.2f  p99 %zu  max %zu\n",
+                deg.empty() ? 0 : deg.front(), pct(0.5), mean, pct(0.99), deg.empty() ? 0 : deg.back());
     std::printf("origin       %.6f %.6f %.6f\n", g.origin[0], g.origin[1], g.origin[2]);
     std::printf("memory       %.1f MiB (%.0f B/point)\n", g.memoryBytes() / 1048576.0,
                 cloud.empty() ? 0.0 : double(g.memoryBytes()) / double(cloud.size()));

@@ -11,15 +11,6 @@
 // PCL's SVD transformation estimation, instantiated here, trips GCC 12 false positives inside Eigen.
 #pragma GCC diagnostic ignored "-Warray-bounds"
 #pragma GCC diagnostic ignored "-Wuse-after-free"
-#include <chrono>
-#include <cmath>
-#include <cstdio>
-#include <cstring>
-#include <fstream>
-#include <string>
-#include <vector>
-
-#include <Eigen/Geometry>
 #include <pcl/common/transforms.h>
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/io/pcd_io.h>
@@ -28,6 +19,15 @@
 #include <pcl/registration/icp.h>
 #include <pcl/registration/transformation_estimation_svd.h>
 #include <pcl/search/kdtree.h>
+
+#include <Eigen/Geometry>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <vector>
 
 #include "pcl_delaunay_walk/core/point_file.h"
 #include "pcl_delaunay_walk/registration/icp_delaunay_walk.h"
@@ -38,7 +38,9 @@ using P = pcl::PointXYZ;
 using Cloud = pcl::PointCloud<P>;
 using Matrix4 = Eigen::Matrix4f;
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
 
 bool endsWith(const std::string& s, const std::string& e) {
   return s.size() >= e.size() && s.compare(s.size() - e.size(), e.size(), e) == 0;
@@ -69,13 +71,14 @@ class TimedEstimation : public pcl::registration::TransformationEstimation<P, P,
     inner_.estimateRigidTransformation(s, t, m);
     seconds_ += since(t0);
   }
-  void estimateRigidTransformation(const Cloud& s, const pcl::Indices& is, const Cloud& t, Matrix4& m) const override {
+  void estimateRigidTransformation(const Cloud& s, const pcl::Indices& is, const Cloud& t,
+                                   Matrix4& m) const override {
     const auto t0 = Clock::now();
     inner_.estimateRigidTransformation(s, is, t, m);
     seconds_ += since(t0);
   }
-  void estimateRigidTransformation(const Cloud& s, const pcl::Indices& is, const Cloud& t, const pcl::Indices& it,
-                                   Matrix4& m) const override {
+  void estimateRigidTransformation(const Cloud& s, const pcl::Indices& is, const Cloud& t,
+                                   const pcl::Indices& it, Matrix4& m) const override {
     const auto t0 = Clock::now();
     inner_.estimateRigidTransformation(s, is, t, it, m);
     seconds_ += since(t0);
@@ -173,24 +176,39 @@ int main(int argc, char** argv) {
         if (end == v.c_str() || *end) throw dw::Error(a + ": '" + v + "' is not a number");
         return d;
       };
-      if (a == "--max-iterations") o.max_iterations = static_cast<int>(number());
-      else if (a == "--max-distance") o.max_distance = number();
-      else if (a == "--epsilon") o.epsilon = number();
-      else if (a == "--fitness-epsilon") o.fitness_epsilon = number();
-      else if (a == "--voxel") o.voxel = static_cast<float>(number());
-      else if (a == "--rotate") for (double& r : o.rotate) r = number();
-      else if (a == "--translate") for (float& t : o.translate) t = static_cast<float>(number());
-      else if (a == "--strategy") o.strategy = dw::parseStartStrategy(value());
-      else if (a == "--threads") o.threads = static_cast<unsigned>(number());
-      else if (a == "--graph") o.graph = value();
-      else if (a == "--save-graph") o.save_graph = value();
-      else if (a == "--reciprocal") o.reciprocal = true;
-      else if (a == "--compare") o.compare = true;
+      if (a == "--max-iterations")
+        o.max_iterations = static_cast<int>(number());
+      else if (a == "--max-distance")
+        o.max_distance = number();
+      else if (a == "--epsilon")
+        o.epsilon = number();
+      else if (a == "--fitness-epsilon")
+        o.fitness_epsilon = number();
+      else if (a == "--voxel")
+        o.voxel = static_cast<float>(number());
+      else if (a == "--rotate")
+        for (double& r : o.rotate) r = number();
+      else if (a == "--translate")
+        for (float& t : o.translate) t = static_cast<float>(number());
+      else if (a == "--strategy")
+        o.strategy = dw::parseStartStrategy(value());
+      else if (a == "--threads")
+        o.threads = static_cast<unsigned>(number());
+      else if (a == "--graph")
+        o.graph = value();
+      else if (a == "--save-graph")
+        o.save_graph = value();
+      else if (a == "--reciprocal")
+        o.reciprocal = true;
+      else if (a == "--compare")
+        o.compare = true;
       else if (a == "-h" || a == "--help") {
         usage();
         return 0;
-      } else if (!a.empty() && a[0] == '-') throw dw::Error("unknown option '" + a + "'");
-      else files.push_back(a);
+      } else if (!a.empty() && a[0] == '-')
+        throw dw::Error("unknown option '" + a + "'");
+      else
+        files.push_back(a);
     }
     if (files.size() != 2) {
       usage();
@@ -215,8 +233,8 @@ int main(int argc, char** argv) {
         *c = f;
       }
     }
-    if (o.rotate[0] != 0 || o.rotate[1] != 0 || o.rotate[2] != 0 || o.translate[0] != 0 || o.translate[1] != 0 ||
-        o.translate[2] != 0) {
+    if (o.rotate[0] != 0 || o.rotate[1] != 0 || o.rotate[2] != 0 || o.translate[0] != 0 ||
+        o.translate[1] != 0 || o.translate[2] != 0) {
       const double d = M_PI / 180.0;
       const Eigen::Affine3f m = Eigen::Translation3f(o.translate[0], o.translate[1], o.translate[2]) *
                                 Eigen::AngleAxisf(float(o.rotate[2] * d), Eigen::Vector3f::UnitZ()) *
@@ -227,8 +245,8 @@ int main(int argc, char** argv) {
       source = moved;
     }
     if (source->empty() || target->empty()) throw dw::Error("source and target must not be empty");
-    std::printf("source %s: %zu points\ntarget %s: %zu points\n", files[0].c_str(), source->size(), files[1].c_str(),
-                target->size());
+    std::printf("source %s: %zu points\ntarget %s: %zu points\n", files[0].c_str(), source->size(),
+                files[1].c_str(), target->size());
 
     // --- the walk ---
     Report w;
@@ -268,23 +286,28 @@ int main(int argc, char** argv) {
       widened += s.widened;
     }
 
-    std::printf("\nDelaunay walk ICP (%s, %u thread%s)\n", dw::toString(o.strategy), o.threads, o.threads == 1 ? "" : "s");
+    std::printf("\nDelaunay walk ICP (%s, %u thread%s)\n", dw::toString(o.strategy), o.threads,
+                o.threads == 1 ? "" : "s");
     std::printf("transformation:\n");
     printMatrix(w.transform);
-    std::printf("fitness %.9g  iterations %d  converged %s\n", w.fitness, w.iterations, w.converged ? "yes" : "no");
-    std::printf("graph %s: %.3f s (%zu vertices, %zu directed edges)\n", o.graph.empty() ? "build" : "load+check",
-                w.index_s, icp.getTargetGraph()->numVertices(), icp.getTargetGraph()->numDirectedEdges());
+    std::printf("fitness %.9g  iterations %d  converged %s\n", w.fitness, w.iterations,
+                w.converged ? "yes" : "no");
+    std::printf("graph %s: %.3f s (%zu vertices, %zu directed edges)\n",
+                o.graph.empty() ? "build" : "load+check", w.index_s, icp.getTargetGraph()->numVertices(),
+                icp.getTargetGraph()->numDirectedEdges());
     std::printf("per-iteration walk statistics:\n  iter  queries  mean-walks  widened   NN ms\n");
     int it = 0;
     for (const auto& s : icp.getIterationStatistics())
       std::printf("  %4d  %7zu  %10.3f  %7zu  %6.2f\n", ++it, s.queries, s.meanWalkSteps(), s.widened,
                   1e3 * s.nn_seconds);
-    std::printf("mean walks/query %.3f over %llu queries (%llu widened)\n", queries ? double(steps) / queries : 0.0,
-                static_cast<unsigned long long>(queries), static_cast<unsigned long long>(widened));
+    std::printf("mean walks/query %.3f over %llu queries (%llu widened)\n",
+                queries ? double(steps) / queries : 0.0, static_cast<unsigned long long>(queries),
+                static_cast<unsigned long long>(widened));
 
     if (!o.compare) {
-      std::printf("\ntiming (s): align %.4f = NN %.4f + transformation estimation %.4f + rest %.4f; graph %.4f\n",
-                  w.align_s, w.nn_s, w.te_s, w.align_s - w.nn_s - w.te_s, w.index_s);
+      std::printf(
+          "\ntiming (s): align %.4f = NN %.4f + transformation estimation %.4f + rest %.4f; graph %.4f\n",
+          w.align_s, w.nn_s, w.te_s, w.align_s - w.nn_s - w.te_s, w.index_s);
       return 0;
     }
 
@@ -320,7 +343,8 @@ int main(int argc, char** argv) {
 
     std::printf("\nstock pcl::IterativeClosestPoint + pcl::search::KdTree\ntransformation:\n");
     printMatrix(k.transform);
-    std::printf("fitness %.9g  iterations %d  converged %s\n", k.fitness, k.iterations, k.converged ? "yes" : "no");
+    std::printf("fitness %.9g  iterations %d  converged %s\n", k.fitness, k.iterations,
+                k.converged ? "yes" : "no");
     const float max_diff = (w.transform - k.transform).cwiseAbs().maxCoeff();
     std::printf("\nmax |T_walk - T_stock| = %.3g, iterations %s\n", max_diff,
                 w.iterations == k.iterations ? "equal" : "DIFFER");
@@ -330,7 +354,8 @@ int main(int argc, char** argv) {
       std::printf("%-34s %12.4f %12.4f %7.2fx\n", name, a, b, a > 0 ? b / a : 0.0);
     };
     row("NN search (all iterations)", w.nn_s, k.nn_s);
-    row("NN search per iteration", w.iterations ? w.nn_s / w.iterations : 0, k.iterations ? k.nn_s / k.iterations : 0);
+    row("NN search per iteration", w.iterations ? w.nn_s / w.iterations : 0,
+        k.iterations ? k.nn_s / k.iterations : 0);
     row("transformation estimation", w.te_s, k.te_s);
     row("rest of align()", w.align_s - w.nn_s - w.te_s, k.align_s - k.nn_s - k.te_s - k.index_s);
     row("index build (graph / k-d tree)", w.index_s, k.index_s);

@@ -22,12 +22,11 @@
 #include <map>
 #include <sstream>
 
+#include "common/icp_estimators.h"
+#include "common/rotation_protocol.h"
 #include "pcl_delaunay_walk/registration/correspondence_estimation_delaunay_walk.h"
 #include "pcl_delaunay_walk/search/delaunay_walk.h"
 #include "pcl_delaunay_walk/search/kdtree_delaunay_walk.h"
-
-#include "common/icp_estimators.h"
-#include "common/rotation_protocol.h"
 
 namespace {
 
@@ -126,13 +125,15 @@ int main(int argc, char** argv) {
       Problem p;
       p.target_xyz = data.xyz;
       p.target = dwb::toCloud(data.xyz);
-      p.source = dwb::toCloud(dwb::transformed(data.xyz, dwb::Rotation{10, 10, 10}.about(dwb::centroid(data.xyz))));
+      p.source =
+          dwb::toCloud(dwb::transformed(data.xyz, dwb::Rotation{10, 10, 10}.about(dwb::centroid(data.xyz))));
       problems()[d] = p;
     } catch (const std::exception& e) {
       std::cerr << "bench_icp: skipping " << d << ": " << e.what() << "\n";
       continue;
     }
-    benchmark::RegisterBenchmark(("ICP/" + d + "/stock-kdtree").c_str(), benchStock, d)->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("ICP/" + d + "/stock-kdtree").c_str(), benchStock, d)
+        ->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark(("ICP/" + d + "/walk-estimator").c_str(), benchWalkEstimator, d, false)
         ->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark(("ICP/" + d + "/walk-estimator+build").c_str(), benchWalkEstimator, d, true)

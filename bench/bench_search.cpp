@@ -7,7 +7,8 @@
 //
 // Data sets: $DW_BENCH_DATASETS (comma list, default dragon-23k,dragon-100k); brute force only up to
 // 11k points, as in the seed. Methods: $DW_BENCH_METHODS (comma list, default all; any name dw_bench
-// takes, e.g. walk-pnn-optimized-sorted-prefetch@qhull). The protocol runner with CSV output is apps/dw_bench.
+// takes, e.g. walk-pnn-optimized-sorted-prefetch@qhull). The protocol runner with CSV output is
+// apps/dw_bench.
 #include <benchmark/benchmark.h>
 
 #include <cstdlib>
@@ -79,8 +80,8 @@ void benchNn(benchmark::State& state, std::string data, std::string method) {
   }
   const double q = double(f.replay->numQueries());
   state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * q));
-  state.counters["ns_per_query"] =
-      benchmark::Counter(q * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["ns_per_query"] = benchmark::Counter(
+      q * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
   if (m->isWalk()) {
     f.replay->run(*m, batch, 1, &steps);
     double sum = 0;
@@ -109,7 +110,7 @@ int main(int argc, char** argv) {
     for (const auto& m : menv ? splitList(menv) : dwb::allMethodNames()) {
       if (m == "brute-force" && n > kBruteForceMax) continue;
       if (!dwb::makeMethod(m)) continue;  // not compiled in
-      if (m.rfind("walk-", 0) != 0)  // the walks share one graph build, registered below
+      if (m.rfind("walk-", 0) != 0)       // the walks share one graph build, registered below
         benchmark::RegisterBenchmark(("Build/" + d + "/" + m).c_str(), benchBuild, d, m)
             ->Unit(benchmark::kMillisecond)
             ->MeasureProcessCPUTime()
@@ -125,7 +126,8 @@ int main(int argc, char** argv) {
   for (const auto& d : datasets) {
     if (!fixtures().count(d)) continue;
     // The walk graph (Delaunay edges + start locators) by each builder.
-    benchmark::RegisterBenchmark(("Build/" + d + "/walk-graph@qhull").c_str(), benchBuild, d, std::string("walk-zero@qhull"))
+    benchmark::RegisterBenchmark(("Build/" + d + "/walk-graph@qhull").c_str(), benchBuild, d,
+                                 std::string("walk-zero@qhull"))
         ->Unit(benchmark::kMillisecond)
         ->MeasureProcessCPUTime()
         ->UseRealTime();

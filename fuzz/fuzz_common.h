@@ -33,6 +33,8 @@ inline bool reportKnownBugs() {
 
 constexpr std::size_t kFlagsAt = 20, kGraphHeaderSize = 104, kPayloadChecksumAt = 88, kHeaderChecksumAt = 96;
 
-inline void resealGraphFile(std::vector<std::uint8_t>& f) { dw::resealGraphFile(f); }
+inline void resealGraphFile(std::vector<std::uint8_t>& f) {
+  dw::resealGraphFile(f);
+}
 
 }  // namespace dw_fuzz

@@ -3,17 +3,16 @@
 /// from the shared data folder, with the gzipped dragons unpacked once into the build directory.
 #pragma once
 
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_types.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <string>
-#include <sys/stat.h>
 #include <vector>
-
-#include <pcl/io/pcd_io.h>
-#include <pcl/point_types.h>
 
 #include "pcl_delaunay_walk/core/point_file.h"
 #include "pcl_delaunay_walk/core/types.h"
@@ -31,8 +30,8 @@ struct Dataset {
 /// Data set names in protocol order (small to large). A ":half" suffix keeps every second point: the
 /// seed's "downsampled by 2" fidelity for sets we have at one resolution only.
 inline std::vector<std::string> knownDatasets() {
-  return {"teapot-792", "dragon-5k",   "bunny-8k",   "dragon-23k",
-          "bunny-36k",  "lidar-69k",   "dragon-100k", "dragon-437k"};
+  return {"teapot-792", "dragon-5k", "bunny-8k",    "dragon-23k",
+          "bunny-36k",  "lidar-69k", "dragon-100k", "dragon-437k"};
 }
 
 inline bool fileExists(const std::string& p) {
@@ -56,7 +55,8 @@ inline std::string findDataFile(const std::string& subdir, const std::string& fi
 #endif
   // Targets without those definitions (apps/dw_bench): the checkout this header lives in.
   std::string root = __FILE__;
-  for (int up = 0; up < 3; ++up) root = root.substr(0, root.find_last_of('/') == std::string::npos ? 0 : root.find_last_of('/'));
+  for (int up = 0; up < 3; ++up)
+    root = root.substr(0, root.find_last_of('/') == std::string::npos ? 0 : root.find_last_of('/'));
   if (!root.empty()) {
     cands.push_back(root + "/../shared/data/" + subdir + "/" + file);
     cands.push_back(root + "/data/" + file);
@@ -124,10 +124,10 @@ inline Dataset loadDataset(const std::string& full_name) {
     const char* file;
   };
   static const Entry entries[] = {
-      {"teapot-792", "models", "teapot_points.ply"},     {"bunny-8k", "models", "bun_zipper_res2.ply"},
-      {"bunny-36k", "models", "bun_zipper.ply"},         {"dragon-5k", "models", "dragon_vrip_res4.ply"},
-      {"dragon-23k", "models", "dragon_vrip_res3.ply"},  {"dragon-100k", "models", "dragon_vrip_res2.ply.gz"},
-      {"dragon-437k", "models", "dragon_vrip.ply.gz"},   {"lidar-69k", "scans", "fastgicp_251370668.pcd"},
+      {"teapot-792", "models", "teapot_points.ply"},    {"bunny-8k", "models", "bun_zipper_res2.ply"},
+      {"bunny-36k", "models", "bun_zipper.ply"},        {"dragon-5k", "models", "dragon_vrip_res4.ply"},
+      {"dragon-23k", "models", "dragon_vrip_res3.ply"}, {"dragon-100k", "models", "dragon_vrip_res2.ply.gz"},
+      {"dragon-437k", "models", "dragon_vrip.ply.gz"},  {"lidar-69k", "scans", "fastgicp_251370668.pcd"},
   };
   const Entry* e = nullptr;
   for (const auto& c : entries)
@@ -167,7 +167,8 @@ inline Dataset loadDataset(const std::string& full_name) {
 inline pcl::PointCloud<pcl::PointXYZ>::Ptr toCloud(const std::vector<float>& xyz) {
   pcl::PointCloud<pcl::PointXYZ>::Ptr c(new pcl::PointCloud<pcl::PointXYZ>);
   c->resize(xyz.size() / 3);
-  for (std::size_t i = 0; i < c->size(); ++i) (*c)[i] = pcl::PointXYZ(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+  for (std::size_t i = 0; i < c->size(); ++i)
+    (*c)[i] = pcl::PointXYZ(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
   c->width = static_cast<std::uint32_t>(c->size());
   c->height = 1;
   c->is_dense = true;

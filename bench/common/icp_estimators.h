@@ -4,12 +4,12 @@
 /// (Fig. 14), without changing what ICP computes.
 #pragma once
 
-#include <memory>
-#include <vector>
-
 #include <pcl/registration/correspondence_estimation.h>
 #include <pcl/registration/icp.h>
 #include <pcl/registration/transformation_estimation_svd.h>
+
+#include <memory>
+#include <vector>
 
 #include "nn_methods.h"
 
@@ -55,7 +55,8 @@ class MethodCorrespondenceEstimation
   using Ptr = std::shared_ptr<MethodCorrespondenceEstimation>;
   using Base = pcl::registration::CorrespondenceEstimationBase<PointT, PointT, float>;
 
-  MethodCorrespondenceEstimation(std::shared_ptr<NnMethod> method, IterationClock* clock, unsigned threads = 1)
+  MethodCorrespondenceEstimation(std::shared_ptr<NnMethod> method, IterationClock* clock,
+                                 unsigned threads = 1)
       : method_(std::move(method)), clock_(clock), threads_(threads) {
     corr_name_ = "MethodCorrespondenceEstimation";
   }
@@ -85,7 +86,8 @@ class MethodCorrespondenceEstimation
       corr[valid++] = pcl::Correspondence((*indices_)[i], batch_.index[i], batch_.dist2[i]);
     }
     corr.resize(valid);
-    if (record_steps_ && method_->isWalk()) steps_.insert(steps_.end(), batch_.steps.begin(), batch_.steps.end());
+    if (record_steps_ && method_->isWalk())
+      steps_.insert(steps_.end(), batch_.steps.begin(), batch_.steps.end());
     pcl::PCLBase<PointT>::deinitCompute();
     if (clock_) clock_->nn_seconds.push_back(secondsSince(t0));
   }
@@ -114,7 +116,8 @@ class TimedStockCorrespondenceEstimation
   void determineCorrespondences(pcl::Correspondences& corr, double max_distance) override {
     clock_->nn_begin.push_back(Clock::now());
     const auto t0 = Clock::now();
-    pcl::registration::CorrespondenceEstimation<PointT, PointT, float>::determineCorrespondences(corr, max_distance);
+    pcl::registration::CorrespondenceEstimation<PointT, PointT, float>::determineCorrespondences(
+        corr, max_distance);
     clock_->nn_seconds.push_back(secondsSince(t0));
   }
 

@@ -4,9 +4,8 @@
 /// previous iteration's answer for the same point), so the NN benchmarks replay it for every peer.
 #pragma once
 
-#include <vector>
-
 #include <Eigen/Geometry>
+#include <vector>
 
 #include "nn_methods.h"
 #include "rotation_protocol.h"
@@ -15,7 +14,7 @@ namespace dwb {
 
 /// Per-iteration transforms of a point-to-point ICP run and the source they apply to.
 struct IcpSequence {
-  std::vector<float> source;                                              ///< xyz of the moving cloud
+  std::vector<float> source;                                                      ///< xyz of the moving cloud
   std::vector<Eigen::Matrix4d, Eigen::aligned_allocator<Eigen::Matrix4d>> poses;  ///< pose at each iteration
   std::size_t numQueries() const { return source.size() / 3 * poses.size(); }
   /// The queries of iteration t (the source under poses[t]).

@@ -5,29 +5,28 @@
 /// is paid once per iteration, never per query, and each peer's inner loop is its own.
 #pragma once
 
+#include <pcl/common/common.h>
+#include <pcl/point_types.h>
+#include <pcl/search/kdtree.h>
+#include <pcl/search/octree.h>
+
 #include <algorithm>
 #include <chrono>
-#include <ctime>
 #include <cmath>
+#include <ctime>
 #include <limits>
 #include <memory>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include <pcl/common/common.h>
-#include <pcl/point_types.h>
-#include <pcl/search/kdtree.h>
-#include <pcl/search/octree.h>
-
 #ifdef DW_HAVE_NANOFLANN
 #include <nanoflann.hpp>
 #endif
 
+#include "datasets.h"
 #include "pcl_delaunay_walk/core/graph_builder.h"
 #include "pcl_delaunay_walk/core/neighbour_search.h"
-
-#include "datasets.h"
 
 namespace dwb {
 
@@ -48,9 +47,9 @@ inline double processCpuSeconds() {
 /// Per-query results of one batch. `hint` is the method's own carry-over state for that query slot
 /// (the walk's previous vertex: PNN); other methods ignore it.
 struct NnBatch {
-  std::vector<int> index;          ///< nearest reference point (index into the reference cloud)
-  std::vector<float> dist2;        ///< its squared distance as the method computed it
-  std::vector<dw::index_t> hint;   ///< PNN state, kInvalidIndex = none (first ICP iteration)
+  std::vector<int> index;            ///< nearest reference point (index into the reference cloud)
+  std::vector<float> dist2;          ///< its squared distance as the method computed it
+  std::vector<dw::index_t> hint;     ///< PNN state, kInvalidIndex = none (first ICP iteration)
   std::vector<std::uint32_t> steps;  ///< walk moves per query (walks only)
   void resize(std::size_t n) {
     index.resize(n);
@@ -213,9 +212,12 @@ class NanoflannNn : public NnMethod {
     std::size_t kdtree_get_point_count() const { return xyz.size() / 3; }
     float kdtree_get_pt(std::size_t i, std::size_t d) const { return xyz[3 * i + d]; }
     template <class BBox>
-    bool kdtree_get_bbox(BBox&) const { return false; }
+    bool kdtree_get_bbox(BBox&) const {
+      return false;
+    }
   };
-  using Index = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Cloud>, Cloud, 3, std::uint32_t>;
+  using Index = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Cloud>, Cloud, 3,
+                                                    std::uint32_t>;
   Cloud cloud_;
   std::unique_ptr<Index> index_;
 };
@@ -250,7 +252,8 @@ class WalkNn : public NnMethod {
     dw::BuildOptions o;
     o.num_threads = 1;
     o.builder = builder_;
-    auto g = std::make_shared<dw::DelaunayGraph>(dw::buildDelaunayGraph(dw::PointView::fromFloat(xyz.data(), xyz.size() / 3), o));
+    auto g = std::make_shared<dw::DelaunayGraph>(
+        dw::buildDelaunayGraph(dw::PointView::fromFloat(xyz.data(), xyz.size() / 3), o));
     search_ = std::make_shared<dw::NeighbourSearch>(g);
   }
   void shareGraph(const WalkNn& other) { search_ = other.search_; }
@@ -313,9 +316,9 @@ class WalkNn : public NnMethod {
 
 /// Method names in report order.
 inline std::vector<std::string> allMethodNames() {
-  return {"brute-force", "pcl-kdtree", "nanoflann",          "pcl-octree",
-          "walk-zero",   "walk-kd-ann", "walk-pnn",           "walk-pnn-optimized",
-          "walk-pnn-prefetch", "walk-pnn-optimized-prefetch"};
+  return {
+      "brute-force", "pcl-kdtree", "nanoflann",          "pcl-octree",        "walk-zero",
+      "walk-kd-ann", "walk-pnn",   "walk-pnn-optimized", "walk-pnn-prefetch", "walk-pnn-optimized-prefetch"};
 }
 
 /// Creates a method by name; nullptr when it is not compiled in (nanoflann without the header).
@@ -337,13 +340,17 @@ inline std::unique_ptr<NnMethod> makeMethod(const std::string& name) {
     const auto at = rest.find('@');
     if (at != std::string::npos) {
       const std::string b = rest.substr(at + 1);
-      if (b == "qhull") builder = dw::BuilderType::Qhull;
-      else if (b == "incremental") builder = dw::BuilderType::Incremental;
-      else throw dw::Error("dw_bench: unknown graph builder '" + b + "' in '" + name + "'");
+      if (b == "qhull")
+        builder = dw::BuilderType::Qhull;
+      else if (b == "incremental")
+        builder = dw::BuilderType::Incremental;
+      else
+        throw dw::Error("dw_bench: unknown graph builder '" + b + "' in '" + name + "'");
       rest.resize(at);
     }
     auto strip = [&rest](const std::string& suffix) {
-      const bool has = rest.size() > suffix.size() && rest.compare(rest.size() - suffix.size(), suffix.size(), suffix) == 0;
+      const bool has = rest.size() > suffix.size() &&
+                       rest.compare(rest.size() - suffix.size(), suffix.size(), suffix) == 0;
       if (has) rest.resize(rest.size() - suffix.size());
       return has;
     };

@@ -3,13 +3,12 @@
 /// 10-degree steps in roll, pitch and yaw, optionally with Gaussian noise added to the target.
 #pragma once
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <cstdint>
 #include <random>
 #include <string>
 #include <vector>
-
-#include <Eigen/Geometry>
 
 #include "pcl_delaunay_walk/core/types.h"
 
@@ -93,7 +92,8 @@ inline double bboxDiagonal(const std::vector<float>& xyz) {
   if (xyz.size() < 3) return 0.0;
   double lo[3] = {xyz[0], xyz[1], xyz[2]}, hi[3] = {xyz[0], xyz[1], xyz[2]};
   for (std::size_t i = 0; i + 2 < xyz.size(); i += 3)
-    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], double(xyz[i + a])), hi[a] = std::max(hi[a], double(xyz[i + a]));
+    for (int a = 0; a < 3; ++a)
+      lo[a] = std::min(lo[a], double(xyz[i + a])), hi[a] = std::max(hi[a], double(xyz[i + a]));
   return std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
                    (hi[2] - lo[2]) * (hi[2] - lo[2]));
 }

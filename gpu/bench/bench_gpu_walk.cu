@@ -110,10 +110,12 @@ struct CloudAdaptor {
     return d == 0 ? p.x : (d == 1 ? p.y : p.z);
   }
   template <class B>
-  bool kdtree_get_bbox(B&) const { return false; }
+  bool kdtree_get_bbox(B&) const {
+    return false;
+  }
 };
-using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, CloudAdaptor>, CloudAdaptor, 3,
-                                                   std::uint32_t>;
+using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, CloudAdaptor>,
+                                                   CloudAdaptor, 3, std::uint32_t>;
 #endif
 
 void benchCloud(const std::string& name, const std::string& path, unsigned hw_threads) {
@@ -123,13 +125,16 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
   const auto graph = dw::buildDelaunayGraph(dw::PointView::fromDouble(xyz.data(), xyz.size() / 3));
   const double build_s = std::chrono::duration<double>(Clock::now() - t0).count();
   std::size_t max_deg = 0;
-  for (std::size_t v = 0; v < graph.numVertices(); ++v) max_deg = std::max(max_deg, graph.degree(dw::index_t(v)));
-  std::printf("points %zu, vertices %zu, directed edges %zu (mean degree %.1f, max %zu), graph build %.2f s (host)\n",
-              xyz.size() / 3, graph.numVertices(), graph.numDirectedEdges(),
-              double(graph.numDirectedEdges()) / double(graph.numVertices()), max_deg, build_s);
+  for (std::size_t v = 0; v < graph.numVertices(); ++v)
+    max_deg = std::max(max_deg, graph.degree(dw::index_t(v)));
+  std::printf(
+      "points %zu, vertices %zu, directed edges %zu (mean degree %.1f, max %zu), graph build %.2f s (host)\n",
+      xyz.size() / 3, graph.numVertices(), graph.numDirectedEdges(),
+      double(graph.numDirectedEdges()) / double(graph.numVertices()), max_deg, build_s);
   t0 = Clock::now();
   DelaunayWalk walk(graph);
-  std::printf("upload + start grid: %.1f ms\n", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  std::printf("upload + start grid: %.1f ms\n",
+              std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
 
   // ICP-like queries in the graph's (Morton) order: the cloud moved a little (previous iteration),
   // then moved a little less (this iteration); PNN hints are the previous iteration's answers.
@@ -146,7 +151,8 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
   DeviceArray<float> d2(n), truth_d2(n);
   walk.nearest(dq_prev.ptr(), n, nullptr, hints.ptr(), d2.ptr());
   const int bf_reps = n > 200000 ? 3 : 10;
-  const double bf = timeGpu([&] { walk.bruteForceNearest(dq.ptr(), n, truth_v.ptr(), truth_d2.ptr()); }, bf_reps);
+  const double bf =
+      timeGpu([&] { walk.bruteForceNearest(dq.ptr(), n, truth_v.ptr(), truth_d2.ptr()); }, bf_reps);
   std::vector<float> truth;
   truth_d2.download(truth);
 
@@ -178,7 +184,8 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
       walk.nearest(dq.ptr(), n, hints.ptr(), verts.ptr(), d2.ptr(), steps.ptr());
       const std::size_t bad = check("PNN walk");
       char note[128];
-      std::snprintf(note, sizeof note, "mean steps %.2f, %s", meanSteps(), bad ? "MISMATCH" : "== brute force");
+      std::snprintf(note, sizeof note, "mean steps %.2f, %s", meanSteps(),
+                    bad ? "MISMATCH" : "== brute force");
       row(std::string("GPU walk, PNN hints, ") + std::to_string(lanes) + " lane(s)/query" +
               (inl ? ", inline positions" : ""),
           t, note);
@@ -196,7 +203,8 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
     const double t = timeGpu([&] { walk.nearest(dq.ptr(), n, nullptr, verts.ptr(), d2.ptr()); });
     walk.nearest(dq.ptr(), n, nullptr, verts.ptr(), d2.ptr(), steps.ptr());
     char note[128];
-    std::snprintf(note, sizeof note, "mean steps %.2f, %s", meanSteps(), check("grid walk") ? "MISMATCH" : "== brute force");
+    std::snprintf(note, sizeof note, "mean steps %.2f, %s", meanSteps(),
+                  check("grid walk") ? "MISMATCH" : "== brute force");
     row("GPU walk, grid start (first ICP round), " + std::to_string(best_lanes) + " lanes", t, note);
   }
   for (int lanes : {1, best_lanes}) {
@@ -225,7 +233,8 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
     std::vector<std::uint32_t> c;
     cnt.download(c);
     char note[96];
-    std::snprintf(note, sizeof note, "r = %.2g, mean found %.1f", r, std::accumulate(c.begin(), c.end(), 0.0) / double(n));
+    std::snprintf(note, sizeof note, "r = %.2g, mean found %.1f", r,
+                  std::accumulate(c.begin(), c.end(), 0.0) / double(n));
     row("GPU radius, max_nn 32, PNN hints", t, note);
   }
 
@@ -250,7 +259,8 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
     CloudAdaptor ad{&graph.points};
     t0 = Clock::now();
     KdTree tree(3, ad, nanoflann::KDTreeSingleIndexAdaptorParams(10));
-    std::printf("nanoflann build: %.1f ms\n", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    std::printf("nanoflann build: %.1f ms\n",
+                std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
     for (unsigned th : {1u, hw_threads}) {
       const double t = timeHost(
           [&] {
@@ -294,8 +304,9 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
     pcl::gpu::IcpResult res;
     const double t = timeHost([&] { res = icp.align(); }, 20);
     char note[160];
-    std::snprintf(note, sizeof note, "%d iterations (%s), %u correspondences, MSE %.2e, R00 %.6f", res.iterations,
-                  pcl::gpu::toString(res.state), res.correspondences, res.mse, res.transformation[0]);
+    std::snprintf(note, sizeof note, "%d iterations (%s), %u correspondences, MSE %.2e, R00 %.6f",
+                  res.iterations, pcl::gpu::toString(res.state), res.correspondences, res.mse,
+                  res.transformation[0]);
     row("GPU ICP align(), end to end (graph on device)", t, note);
     {  // per-iteration cost: exactly 30 iterations (no criterion can fire before max_iterations)
       pcl::gpu::IcpParameters fixed = p;
@@ -306,7 +317,8 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
       pcl::gpu::IcpResult r30;
       const double t30 = timeHost([&] { r30 = icp.align(); }, 10);
       char n30[96];
-      std::snprintf(n30, sizeof n30, "%d iterations: %.1f us per iteration", r30.iterations, t30 / r30.iterations);
+      std::snprintf(n30, sizeof n30, "%d iterations: %.1f us per iteration", r30.iterations,
+                    t30 / r30.iterations);
       row("GPU ICP align(), exactly 30 iterations", t30, n30);
       icp.setParameters(p);
     }

@@ -1,11 +1,10 @@
 // pcl::gpu::DelaunayWalk: graph upload, start grid, batch NN / kNN / radius and the brute-force reference.
-#include "pcl_delaunay_walk/gpu/delaunay_walk.h"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
+#include "pcl_delaunay_walk/gpu/delaunay_walk.h"
 #include "walk_device.cuh"
 
 namespace pcl {
@@ -17,15 +16,19 @@ using detail::kInvalid;
 
 constexpr int kBlock = 256;
 
-unsigned blocksFor(std::size_t threads) { return unsigned((threads + kBlock - 1) / kBlock); }
+unsigned blocksFor(std::size_t threads) {
+  return unsigned((threads + kBlock - 1) / kBlock);
+}
 
-void checkLaunch(const char* what) { checkCuda(cudaGetLastError(), what); }
+void checkLaunch(const char* what) {
+  checkCuda(cudaGetLastError(), what);
+}
 
 template <int G>
-__global__ void __launch_bounds__(kBlock) nearestKernel(DeviceGraphView g, const float4* __restrict__ queries,
-                                                        std::uint32_t n, const std::uint32_t* __restrict__ hints,
-                                                        std::uint32_t* __restrict__ vertices,
-                                                        float* __restrict__ dist2, std::uint32_t* __restrict__ steps) {
+__global__ void __launch_bounds__(kBlock)
+    nearestKernel(DeviceGraphView g, const float4* __restrict__ queries, std::uint32_t n,
+                  const std::uint32_t* __restrict__ hints, std::uint32_t* __restrict__ vertices,
+                  float* __restrict__ dist2, std::uint32_t* __restrict__ steps) {
   const std::size_t qi = (std::size_t(blockIdx.x) * kBlock + threadIdx.x) / G;
   if (qi >= n) return;  // a whole tile leaves together: its lanes share qi
   const float4 q = queries[qi];
@@ -48,9 +51,9 @@ __global__ void __launch_bounds__(kBlock) nearestKernel(DeviceGraphView g, const
 }
 
 /// Seeds of one grid level: the exact NN of each cell centre, walked from the parent level's seed.
-__global__ void gridSeedKernel(DeviceGraphView g, int dx, int dy, int dz, float ox, float oy, float oz, float hx,
-                               float hy, float hz, const std::uint32_t* parent, int pdx, int pdy, int ratio,
-                               std::uint32_t* seeds) {
+__global__ void gridSeedKernel(DeviceGraphView g, int dx, int dy, int dz, float ox, float oy, float oz,
+                               float hx, float hy, float hz, const std::uint32_t* parent, int pdx, int pdy,
+                               int ratio, std::uint32_t* seeds) {
   const std::size_t c = std::size_t(blockIdx.x) * kBlock + threadIdx.x;
   const std::size_t total = std::size_t(dx) * dy * dz;
   if (c >= total) return;
@@ -59,14 +62,14 @@ __global__ void gridSeedKernel(DeviceGraphView g, int dx, int dy, int dz, float 
   if (parent) start = parent[(std::size_t(iz / ratio) * pdy + iy / ratio) * pdx + ix / ratio];
   double d2;
   std::uint32_t s;
-  seeds[c] = detail::walkThread(g, ox + (ix + 0.5f) * hx, oy + (iy + 0.5f) * hy, oz + (iz + 0.5f) * hz, start, d2, s);
+  seeds[c] = detail::walkThread(g, ox + (ix + 0.5f) * hx, oy + (iy + 0.5f) * hy, oz + (iz + 0.5f) * hz, start,
+                                d2, s);
 }
 
 /// Brute force: each thread one query, vertices streamed through shared memory in tiles.
-__global__ void __launch_bounds__(kBlock) bruteForceKernel(const float4* __restrict__ points, std::uint32_t nv,
-                                                           const float4* __restrict__ queries, std::uint32_t n,
-                                                           std::uint32_t* __restrict__ vertices,
-                                                           float* __restrict__ dist2) {
+__global__ void __launch_bounds__(kBlock)
+    bruteForceKernel(const float4* __restrict__ points, std::uint32_t nv, const float4* __restrict__ queries,
+                     std::uint32_t n, std::uint32_t* __restrict__ vertices, float* __restrict__ dist2) {
   __shared__ float4 tile[kBlock];
   const std::size_t qi = std::size_t(blockIdx.x) * kBlock + threadIdx.x;
   float4 q = qi < n ? queries[qi] : make_float4(0.f, 0.f, 0.f, 0.f);
@@ -100,10 +103,11 @@ __global__ void __launch_bounds__(kBlock) bruteForceKernel(const float4* __restr
 /// at least k inputs are already known to be nearer, so it can never be one of the k; one dropped and
 /// met again is simply reconsidered.
 template <int CAP>
-__global__ void __launch_bounds__(128) expandKernel(DeviceGraphView g, const float4* __restrict__ queries,
-                                                    std::uint32_t n, const std::uint32_t* __restrict__ hints,
-                                                    unsigned k, double r2, std::uint32_t* __restrict__ out_idx,
-                                                    float* __restrict__ out_d2, std::uint32_t* __restrict__ counts) {
+__global__ void __launch_bounds__(128)
+    expandKernel(DeviceGraphView g, const float4* __restrict__ queries, std::uint32_t n,
+                 const std::uint32_t* __restrict__ hints, unsigned k, double r2,
+                 std::uint32_t* __restrict__ out_idx, float* __restrict__ out_d2,
+                 std::uint32_t* __restrict__ counts) {
   const std::size_t qi = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (qi >= n) return;
   std::uint32_t* row_idx = out_idx + qi * k;
@@ -117,8 +121,8 @@ __global__ void __launch_bounds__(128) expandKernel(DeviceGraphView g, const flo
   if (g.num_vertices != 0 && detail::finite3(q.x, q.y, q.z)) {
     double d0;
     std::uint32_t s;
-    const std::uint32_t v0 =
-        detail::walkThread(g, q.x, q.y, q.z, detail::startVertex(g, q.x, q.y, q.z, hints ? hints[qi] : kInvalid), d0, s);
+    const std::uint32_t v0 = detail::walkThread(
+        g, q.x, q.y, q.z, detail::startVertex(g, q.x, q.y, q.z, hints ? hints[qi] : kInvalid), d0, s);
     double cd[CAP];
     std::uint32_t cv[CAP];
     std::uint32_t fv[CAP];
@@ -133,7 +137,8 @@ __global__ void __launch_bounds__(128) expandKernel(DeviceGraphView g, const flo
       const double d = cd[nc];
       const std::uint32_t v = cv[nc];
       fv[nf++] = v;
-      for (std::uint32_t o = g.originals_offsets[v], oe = g.originals_offsets[v + 1]; o < oe && emitted < k; ++o) {
+      for (std::uint32_t o = g.originals_offsets[v], oe = g.originals_offsets[v + 1]; o < oe && emitted < k;
+           ++o) {
         row_idx[emitted] = g.originals[o];
         row_d2[emitted] = float(d);
         ++emitted;
@@ -200,7 +205,8 @@ __global__ void mapKernel(const std::uint32_t* __restrict__ table, std::uint32_t
 template <int G>
 void launchNearest(const DeviceGraphView& g, const float4* q, std::size_t n, const std::uint32_t* hints,
                    std::uint32_t* vertices, float* dist2, std::uint32_t* steps, cudaStream_t stream) {
-  nearestKernel<G><<<blocksFor(n * G), kBlock, 0, stream>>>(g, q, std::uint32_t(n), hints, vertices, dist2, steps);
+  nearestKernel<G>
+      <<<blocksFor(n * G), kBlock, 0, stream>>>(g, q, std::uint32_t(n), hints, vertices, dist2, steps);
 }
 
 }  // namespace
@@ -211,20 +217,24 @@ void DelaunayWalk::setGraph(const dw::DelaunayGraph& graph, double cells_per_ver
     throw dw::Error("pcl::gpu::DelaunayWalk: graph too large for 32-bit device indices");
   if (graph.offsets.size() != nv + 1 || graph.originals_offsets.size() != nv + 1 ||
       (nv && graph.offsets.back() != graph.edges.size()))
-    throw dw::Error("pcl::gpu::DelaunayWalk: graph CSR arrays are inconsistent (call DelaunayGraph::validate)");
+    throw dw::Error(
+        "pcl::gpu::DelaunayWalk: graph CSR arrays are inconsistent (call DelaunayGraph::validate)");
   if (!(cells_per_vertex > 0.0) || !std::isfinite(cells_per_vertex))
     throw dw::Error("pcl::gpu::DelaunayWalk: cells_per_vertex must be positive and finite");
 
   std::vector<float4> pts(nv);
-  for (std::size_t v = 0; v < nv; ++v) pts[v] = make_float4(graph.points[v].x, graph.points[v].y, graph.points[v].z, 0.f);
+  for (std::size_t v = 0; v < nv; ++v)
+    pts[v] = make_float4(graph.points[v].x, graph.points[v].y, graph.points[v].z, 0.f);
   std::vector<std::uint32_t> nbr(graph.edges.size());
   for (std::size_t e = 0; e < nbr.size(); ++e) {
     nbr[e] = graph.edges[e].j;
-    if (nbr[e] >= nv) throw dw::Error("pcl::gpu::DelaunayWalk: edge " + std::to_string(e) + " points past the vertices");
+    if (nbr[e] >= nv)
+      throw dw::Error("pcl::gpu::DelaunayWalk: edge " + std::to_string(e) + " points past the vertices");
   }
   vertex_to_input_.resize(nv);
   for (std::size_t v = 0; v < nv; ++v) {
-    if (graph.originals_offsets[v] >= graph.originals_offsets[v + 1] || graph.originals_offsets[v + 1] > graph.originals.size())
+    if (graph.originals_offsets[v] >= graph.originals_offsets[v + 1] ||
+        graph.originals_offsets[v + 1] > graph.originals.size())
       throw dw::Error("pcl::gpu::DelaunayWalk: vertex " + std::to_string(v) + " has no original input index");
     vertex_to_input_[v] = graph.representative(dw::index_t(v));
   }
@@ -297,13 +307,14 @@ void DelaunayWalk::buildStartGrid(const dw::DelaunayGraph& graph, double cells_p
   for (int a = 0; a < 3; ++a) cd[a] = (dims[a] + kRatio - 1) / kRatio;
   DeviceArray<std::uint32_t> coarse(std::size_t(cd[0]) * cd[1] * cd[2]);
   DeviceGraphView g = view_;  // grid_seeds stays null: seed walks start where told
-  gridSeedKernel<<<blocksFor(coarse.size()), kBlock>>>(g, cd[0], cd[1], cd[2], lo[0], lo[1], lo[2], h[0] * kRatio,
-                                                      h[1] * kRatio, h[2] * kRatio, nullptr, 0, 0, 1, coarse.ptr());
+  gridSeedKernel<<<blocksFor(coarse.size()), kBlock>>>(g, cd[0], cd[1], cd[2], lo[0], lo[1], lo[2],
+                                                       h[0] * kRatio, h[1] * kRatio, h[2] * kRatio, nullptr,
+                                                       0, 0, 1, coarse.ptr());
   checkLaunch("DelaunayWalk: coarse start grid");
   grid_seeds_.create(std::size_t(dims[0]) * dims[1] * dims[2]);
-  gridSeedKernel<<<blocksFor(grid_seeds_.size()), kBlock>>>(g, dims[0], dims[1], dims[2], lo[0], lo[1], lo[2], h[0],
-                                                           h[1], h[2], coarse.ptr(), cd[0], cd[1], kRatio,
-                                                           grid_seeds_.ptr());
+  gridSeedKernel<<<blocksFor(grid_seeds_.size()), kBlock>>>(g, dims[0], dims[1], dims[2], lo[0], lo[1], lo[2],
+                                                            h[0], h[1], h[2], coarse.ptr(), cd[0], cd[1],
+                                                            kRatio, grid_seeds_.ptr());
   checkLaunch("DelaunayWalk: start grid");
   checkCuda(cudaDeviceSynchronize(), "DelaunayWalk: start grid");
   view_.grid_seeds = grid_seeds_.ptr();
@@ -348,11 +359,13 @@ void DelaunayWalk::setGroupSize(int lanes) {
   group_size_ = lanes;
 }
 
-void DelaunayWalk::nearest(const float4* q, std::size_t n, const std::uint32_t* hints, std::uint32_t* vertices,
-                           float* dist2, std::uint32_t* steps, cudaStream_t stream) const {
+void DelaunayWalk::nearest(const float4* q, std::size_t n, const std::uint32_t* hints,
+                           std::uint32_t* vertices, float* dist2, std::uint32_t* steps,
+                           cudaStream_t stream) const {
   if (n == 0) return;
   if (n >= kInvalid) throw dw::Error("pcl::gpu::DelaunayWalk::nearest: too many queries for one batch");
-  if (!q || !vertices || !dist2) throw dw::Error("pcl::gpu::DelaunayWalk::nearest: null query or output pointer");
+  if (!q || !vertices || !dist2)
+    throw dw::Error("pcl::gpu::DelaunayWalk::nearest: null query or output pointer");
   switch (group_size_) {
     case 1: launchNearest<1>(view_, q, n, hints, vertices, dist2, steps, stream); break;
     case 2: launchNearest<2>(view_, q, n, hints, vertices, dist2, steps, stream); break;
@@ -373,16 +386,19 @@ void DelaunayWalk::nearest(const DeviceArray<float4>& queries, const DeviceArray
   vertices.create(n);
   dist2.create(n);
   if (steps) steps->create(n);
-  nearest(queries.ptr(), n, hints ? hints->ptr() : nullptr, vertices.ptr(), dist2.ptr(), steps ? steps->ptr() : nullptr,
-          stream);
+  nearest(queries.ptr(), n, hints ? hints->ptr() : nullptr, vertices.ptr(), dist2.ptr(),
+          steps ? steps->ptr() : nullptr, stream);
 }
 
 void DelaunayWalk::expand(const DeviceArray<float4>& queries, unsigned k, double radius2,
                           const DeviceArray<std::uint32_t>* hints, DeviceArray<std::uint32_t>& indices,
-                          DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts, cudaStream_t stream) const {
+                          DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts,
+                          cudaStream_t stream) const {
   const std::size_t n = queries.size();
-  if (hints && hints->size() != n) throw dw::Error("pcl::gpu::DelaunayWalk: hints must have one entry per query");
-  if (n >= kInvalid / std::max(1u, k)) throw dw::Error("pcl::gpu::DelaunayWalk: too many queries for one batch");
+  if (hints && hints->size() != n)
+    throw dw::Error("pcl::gpu::DelaunayWalk: hints must have one entry per query");
+  if (n >= kInvalid / std::max(1u, k))
+    throw dw::Error("pcl::gpu::DelaunayWalk: too many queries for one batch");
   indices.create(n * k);
   dist2.create(n * k);
   counts.create(n);
@@ -391,41 +407,49 @@ void DelaunayWalk::expand(const DeviceArray<float4>& queries, unsigned k, double
   const unsigned blocks = unsigned((n + 127) / 128);
   const auto nn = std::uint32_t(n);
   if (k <= 8)
-    expandKernel<8><<<blocks, 128, 0, stream>>>(view_, queries.ptr(), nn, h, k, radius2, indices.ptr(), dist2.ptr(), counts.ptr());
+    expandKernel<8><<<blocks, 128, 0, stream>>>(view_, queries.ptr(), nn, h, k, radius2, indices.ptr(),
+                                                dist2.ptr(), counts.ptr());
   else if (k <= 16)
-    expandKernel<16><<<blocks, 128, 0, stream>>>(view_, queries.ptr(), nn, h, k, radius2, indices.ptr(), dist2.ptr(), counts.ptr());
+    expandKernel<16><<<blocks, 128, 0, stream>>>(view_, queries.ptr(), nn, h, k, radius2, indices.ptr(),
+                                                 dist2.ptr(), counts.ptr());
   else if (k <= 32)
-    expandKernel<32><<<blocks, 128, 0, stream>>>(view_, queries.ptr(), nn, h, k, radius2, indices.ptr(), dist2.ptr(), counts.ptr());
+    expandKernel<32><<<blocks, 128, 0, stream>>>(view_, queries.ptr(), nn, h, k, radius2, indices.ptr(),
+                                                 dist2.ptr(), counts.ptr());
   else
-    expandKernel<64><<<blocks, 128, 0, stream>>>(view_, queries.ptr(), nn, h, k, radius2, indices.ptr(), dist2.ptr(), counts.ptr());
+    expandKernel<64><<<blocks, 128, 0, stream>>>(view_, queries.ptr(), nn, h, k, radius2, indices.ptr(),
+                                                 dist2.ptr(), counts.ptr());
   checkLaunch("DelaunayWalk: kNN/radius expansion");
 }
 
-void DelaunayWalk::knn(const DeviceArray<float4>& queries, unsigned k, const DeviceArray<std::uint32_t>* hints,
-                       DeviceArray<std::uint32_t>& indices, DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts,
+void DelaunayWalk::knn(const DeviceArray<float4>& queries, unsigned k,
+                       const DeviceArray<std::uint32_t>* hints, DeviceArray<std::uint32_t>& indices,
+                       DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts,
                        cudaStream_t stream) const {
   if (k == 0 || k > kMaxK)
-    throw dw::Error("pcl::gpu::DelaunayWalk::knn: k must be in 1.." + std::to_string(kMaxK) + ", got " + std::to_string(k));
+    throw dw::Error("pcl::gpu::DelaunayWalk::knn: k must be in 1.." + std::to_string(kMaxK) + ", got " +
+                    std::to_string(k));
   expand(queries, k, INFINITY, hints, indices, dist2, counts, stream);
 }
 
 void DelaunayWalk::radius(const DeviceArray<float4>& queries, float radius, unsigned max_nn,
                           const DeviceArray<std::uint32_t>* hints, DeviceArray<std::uint32_t>& indices,
-                          DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts, cudaStream_t stream) const {
+                          DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts,
+                          cudaStream_t stream) const {
   if (!(radius >= 0.f) || !std::isfinite(radius))
     throw dw::Error("pcl::gpu::DelaunayWalk::radius: radius must be finite and >= 0");
   if (max_nn == 0 || max_nn > kMaxK)
-    throw dw::Error("pcl::gpu::DelaunayWalk::radius: max_nn must be in 1.." + std::to_string(kMaxK) + ", got " +
-                    std::to_string(max_nn));
+    throw dw::Error("pcl::gpu::DelaunayWalk::radius: max_nn must be in 1.." + std::to_string(kMaxK) +
+                    ", got " + std::to_string(max_nn));
   expand(queries, max_nn, double(radius) * double(radius), hints, indices, dist2, counts, stream);
 }
 
-void DelaunayWalk::bruteForceNearest(const float4* queries, std::size_t n, std::uint32_t* vertices, float* dist2,
-                                     cudaStream_t stream) const {
+void DelaunayWalk::bruteForceNearest(const float4* queries, std::size_t n, std::uint32_t* vertices,
+                                     float* dist2, cudaStream_t stream) const {
   if (n == 0) return;
-  if (n >= kInvalid) throw dw::Error("pcl::gpu::DelaunayWalk::bruteForceNearest: too many queries for one batch");
-  bruteForceKernel<<<blocksFor(n), kBlock, 0, stream>>>(view_.points, view_.num_vertices, queries, std::uint32_t(n),
-                                                        vertices, dist2);
+  if (n >= kInvalid)
+    throw dw::Error("pcl::gpu::DelaunayWalk::bruteForceNearest: too many queries for one batch");
+  bruteForceKernel<<<blocksFor(n), kBlock, 0, stream>>>(view_.points, view_.num_vertices, queries,
+                                                        std::uint32_t(n), vertices, dist2);
   checkLaunch("DelaunayWalk::bruteForceNearest");
 }
 

@@ -1,12 +1,11 @@
 // pcl::gpu::IterativeClosestPoint: the device-resident ICP loop (see the header for the design).
-#include "pcl_delaunay_walk/gpu/iterative_closest_point.h"
-
 #include <algorithm>
 #include <cstring>
 #include <numeric>
 #include <string>
 
 #include "pcl_delaunay_walk/core/space_filling_curve.h"
+#include "pcl_delaunay_walk/gpu/iterative_closest_point.h"
 #include "pcl_delaunay_walk/gpu/rigid_transform.h"
 #include "walk_device.cuh"
 
@@ -18,8 +17,8 @@ namespace cg = cooperative_groups;
 using detail::kInvalid;
 
 constexpr int kBlock = 256;
-constexpr int kAhead = 3;           // iterations queued ahead of the GPU at most
-constexpr int kSums = 17;           // count, sum q (3), sum t (3), sum q t^T (9), sum d2
+constexpr int kAhead = 3;  // iterations queued ahead of the GPU at most
+constexpr int kSums = 17;  // count, sum q (3), sum t (3), sum q t^T (9), sum d2
 
 /// Solver state of one source, in device memory. Composite transform: target_local = r * p + t with p
 /// relative to the source centroid c; the float copy is what the correspondence kernel applies (PCL
@@ -65,7 +64,8 @@ __device__ void solveStep(SourceState& st, const double* acc, const SolveParams&
   double rs[9];
   rotationFromCrossCovariance(cov, rs);
   double ts[3];
-  for (int a = 0; a < 3; ++a) ts[a] = mt[a] - (rs[3 * a] * mq[0] + rs[3 * a + 1] * mq[1] + rs[3 * a + 2] * mq[2]);
+  for (int a = 0; a < 3; ++a)
+    ts[a] = mt[a] - (rs[3 * a] * mq[0] + rs[3 * a + 1] * mq[1] + rs[3 * a + 2] * mq[2]);
   // Compose: (rs, ts) o (r, t), all in the target's local frame.
   double r[9], t[3];
   for (int a = 0; a < 3; ++a) {
@@ -124,7 +124,8 @@ __device__ void solveStep(SourceState& st, const double* acc, const SolveParams&
   }
   st.similar = similar ? st.similar + 1 : 0;
   st.prev_mse = mse;
-  if (st.state == int(ConvergenceState::FailureAfterMaxIterations)) finish(st, st.state, done_count, done_host);
+  if (st.state == int(ConvergenceState::FailureAfterMaxIterations))
+    finish(st, st.state, done_count, done_host);
 }
 
 /// The correspondence half of one ICP iteration, for every source not yet done. Each block transforms
@@ -138,11 +139,11 @@ __device__ void solveStep(SourceState& st, const double* acc, const SolveParams&
 /// raised the registers and cut the walks in flight ~3x (measured 75 us per iteration instead of ~25
 /// on the 100k dragon, docs/gpu.md).
 template <int G>
-__global__ void __launch_bounds__(kBlock) correspondKernel(DeviceGraphView g, const float4* __restrict__ pts,
-                                                           const std::uint32_t* __restrict__ point_source,
-                                                           std::uint32_t n, const SourceState* __restrict__ states,
-                                                           double max_dist2, std::uint32_t* __restrict__ hints,
-                                                           float* __restrict__ corr_d2) {
+__global__ void __launch_bounds__(kBlock)
+    correspondKernel(DeviceGraphView g, const float4* __restrict__ pts,
+                     const std::uint32_t* __restrict__ point_source, std::uint32_t n,
+                     const SourceState* __restrict__ states, double max_dist2,
+                     std::uint32_t* __restrict__ hints, float* __restrict__ corr_d2) {
   const std::size_t i = (std::size_t(blockIdx.x) * kBlock + threadIdx.x) / G;
   if (i >= n) return;  // tile-uniform: its lanes share i
   const SourceState& st = states[point_source[i]];
@@ -160,7 +161,8 @@ __global__ void __launch_bounds__(kBlock) correspondKernel(DeviceGraphView g, co
     if constexpr (G == 1) {
       v = detail::walkThread(g, qx, qy, qz, start, d2, steps);
     } else {
-      v = detail::walkTile<G>(cg::tiled_partition<G>(cg::this_thread_block()), g, qx, qy, qz, start, d2, steps);
+      v = detail::walkTile<G>(cg::tiled_partition<G>(cg::this_thread_block()), g, qx, qy, qz, start, d2,
+                              steps);
     }
     if (d2 <= max_dist2) out = float(d2);  // PCL: rejected when distance > max_distance^2
   }
@@ -174,14 +176,12 @@ __global__ void __launch_bounds__(kBlock) correspondKernel(DeviceGraphView g, co
 /// points (recomputing q exactly as the walk did), reduces in double, writes a partial; the last block
 /// of a source (atomic ticket, the classic threadfence reduction) sums the partials in a fixed order,
 /// so the result is deterministic and the same whether the source is alone or in a batch.
-__global__ void __launch_bounds__(kBlock) accumulateKernel(DeviceGraphView g, const float4* __restrict__ pts,
-                                                           const std::uint32_t* __restrict__ hints,
-                                                           const float* __restrict__ corr_d2,
-                                                           const std::uint32_t* __restrict__ block_source,
-                                                           const std::uint32_t* __restrict__ meta,
-                                                           const SourceState* __restrict__ states,
-                                                           double* __restrict__ partials, unsigned* tickets,
-                                                           double* __restrict__ sums) {
+__global__ void __launch_bounds__(kBlock)
+    accumulateKernel(DeviceGraphView g, const float4* __restrict__ pts,
+                     const std::uint32_t* __restrict__ hints, const float* __restrict__ corr_d2,
+                     const std::uint32_t* __restrict__ block_source, const std::uint32_t* __restrict__ meta,
+                     const SourceState* __restrict__ states, double* __restrict__ partials, unsigned* tickets,
+                     double* __restrict__ sums) {
   const std::uint32_t s = block_source[blockIdx.x];
   const SourceState& st = states[s];
   if (st.done) return;  // the whole block belongs to one source: uniform exit
@@ -193,7 +193,8 @@ __global__ void __launch_bounds__(kBlock) accumulateKernel(DeviceGraphView g, co
   double acc[kSums];
 #pragma unroll
   for (int k = 0; k < kSums; ++k) acc[k] = 0.0;
-  for (std::uint32_t local = (blockIdx.x - first_block) * kBlock + threadIdx.x; local < size; local += nb * kBlock) {
+  for (std::uint32_t local = (blockIdx.x - first_block) * kBlock + threadIdx.x; local < size;
+       local += nb * kBlock) {
     const std::uint32_t i = begin + local;
     const float d2 = corr_d2[i];
     if (!(d2 >= 0.f)) continue;
@@ -204,11 +205,21 @@ __global__ void __launch_bounds__(kBlock) accumulateKernel(DeviceGraphView g, co
     const float4 t = __ldg(g.points + hints[i]);
     const double tx = t.x, ty = t.y, tz = t.z;
     acc[0] += 1.0;
-    acc[1] += x; acc[2] += y; acc[3] += z;
-    acc[4] += tx; acc[5] += ty; acc[6] += tz;
-    acc[7] += x * tx; acc[8] += x * ty; acc[9] += x * tz;
-    acc[10] += y * tx; acc[11] += y * ty; acc[12] += y * tz;
-    acc[13] += z * tx; acc[14] += z * ty; acc[15] += z * tz;
+    acc[1] += x;
+    acc[2] += y;
+    acc[3] += z;
+    acc[4] += tx;
+    acc[5] += ty;
+    acc[6] += tz;
+    acc[7] += x * tx;
+    acc[8] += x * ty;
+    acc[9] += x * tz;
+    acc[10] += y * tx;
+    acc[11] += y * ty;
+    acc[12] += y * tz;
+    acc[13] += z * tx;
+    acc[14] += z * ty;
+    acc[15] += z * tz;
     acc[16] += d2;
   }
   __shared__ double part[kBlock / 32][kSums];
@@ -252,19 +263,20 @@ __global__ void __launch_bounds__(kBlock) accumulateKernel(DeviceGraphView g, co
 }
 
 template <int G>
-void launchCorrespond(const DeviceGraphView& g, const float4* pts, const std::uint32_t* point_source, std::size_t n,
-                      const SourceState* states, double max_dist2, std::uint32_t* hints, float* corr_d2,
-                      cudaStream_t stream) {
+void launchCorrespond(const DeviceGraphView& g, const float4* pts, const std::uint32_t* point_source,
+                      std::size_t n, const SourceState* states, double max_dist2, std::uint32_t* hints,
+                      float* corr_d2, cudaStream_t stream) {
   const auto blocks = unsigned((n * G + kBlock - 1) / kBlock);
-  correspondKernel<G><<<blocks, kBlock, 0, stream>>>(g, pts, point_source, std::uint32_t(n), states, max_dist2, hints,
-                                                     corr_d2);
+  correspondKernel<G><<<blocks, kBlock, 0, stream>>>(g, pts, point_source, std::uint32_t(n), states,
+                                                     max_dist2, hints, corr_d2);
 }
 
 /// The step of every source still running, one thread each. Kept out of the walk kernel: the 4x4
 /// Jacobi in double needs ~100 registers, which fused into the walk cut its occupancy to one block per
 /// multiprocessor and made an iteration 3-5x slower (measured, docs/gpu.md).
-__global__ void solveKernel(const double* __restrict__ sums, std::uint32_t ns, SourceState* __restrict__ states,
-                            SolveParams prm, unsigned* done_count, volatile unsigned* done_host) {
+__global__ void solveKernel(const double* __restrict__ sums, std::uint32_t ns,
+                            SourceState* __restrict__ states, SolveParams prm, unsigned* done_count,
+                            volatile unsigned* done_host) {
   const std::uint32_t s = blockIdx.x * blockDim.x + threadIdx.x;
   if (s >= ns || states[s].done) return;
   double acc[kSums];
@@ -273,7 +285,8 @@ __global__ void solveKernel(const double* __restrict__ sums, std::uint32_t ns, S
 }
 
 /// A source with no points has no blocks: its sums are zero (no correspondences).
-__global__ void emptySourcesKernel(const std::uint32_t* __restrict__ meta, std::uint32_t ns, double* __restrict__ sums) {
+__global__ void emptySourcesKernel(const std::uint32_t* __restrict__ meta, std::uint32_t ns,
+                                   double* __restrict__ sums) {
   const std::uint32_t s = blockIdx.x * blockDim.x + threadIdx.x;
   if (s >= ns || meta[4 * s + 3] != 0) return;
   for (int k = 0; k < kSums; ++k) sums[std::size_t(s) * kSums + k] = 0.0;
@@ -302,7 +315,8 @@ IterativeClosestPoint::IterativeClosestPoint(DelaunayWalk::ConstPtr target) : ta
   checkCuda(cudaHostAlloc(&p, sizeof(unsigned), cudaHostAllocMapped), "cudaHostAlloc");
   done_host_ = static_cast<unsigned*>(p);
   *done_host_ = 0;
-  checkCuda(cudaHostGetDevicePointer(reinterpret_cast<void**>(&done_host_dev_), p, 0), "cudaHostGetDevicePointer");
+  checkCuda(cudaHostGetDevicePointer(reinterpret_cast<void**>(&done_host_dev_), p, 0),
+            "cudaHostGetDevicePointer");
   done_count_.create(1);
 }
 
@@ -363,7 +377,8 @@ std::size_t IterativeClosestPoint::addSource(const dw::PointView& source) {
   const double ext = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-300});
   for (std::size_t i = 0; i < pts.size(); ++i) {
     std::uint32_t c[3];
-    for (int a = 0; a < 3; ++a) c[a] = std::uint32_t(std::min(1048575.0, (pts[i][a] - lo[a]) / ext * 1048576.0));
+    for (int a = 0; a < 3; ++a)
+      c[a] = std::uint32_t(std::min(1048575.0, (pts[i][a] - lo[a]) / ext * 1048576.0));
     key[i] = dw::mortonKey(c[0], c[1], c[2]);
   }
   std::vector<std::size_t> order(pts.size());
@@ -412,7 +427,8 @@ void IterativeClosestPoint::uploadLayout() {
 
 IcpResult IterativeClosestPoint::align(const Matrix4d& guess) {
   if (sources_.size() != 1)
-    throw dw::Error("pcl::gpu::IterativeClosestPoint::align: needs exactly one source (use alignAll for a batch)");
+    throw dw::Error(
+        "pcl::gpu::IterativeClosestPoint::align: needs exactly one source (use alignAll for a batch)");
   return alignAll({guess}).front();
 }
 
@@ -443,16 +459,20 @@ std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4
     st.prev_mse = std::numeric_limits<double>::max();
     st.state = int(ConvergenceState::NotConverged);
   }
-  checkCuda(cudaMemcpyAsync(states_.ptr(), init.data(), ns * sizeof(SourceState), cudaMemcpyHostToDevice, stream_),
-            "ICP: upload state");
-  checkCuda(cudaMemsetAsync(hints_.ptr(), 0xff, hints_.size() * sizeof(std::uint32_t), stream_), "ICP: reset hints");
+  checkCuda(
+      cudaMemcpyAsync(states_.ptr(), init.data(), ns * sizeof(SourceState), cudaMemcpyHostToDevice, stream_),
+      "ICP: upload state");
+  checkCuda(cudaMemsetAsync(hints_.ptr(), 0xff, hints_.size() * sizeof(std::uint32_t), stream_),
+            "ICP: reset hints");
   checkCuda(cudaMemsetAsync(done_count_.ptr(), 0, sizeof(unsigned), stream_), "ICP: reset");
-  checkCuda(cudaMemsetAsync(tickets_.ptr(), 0, tickets_.size() * sizeof(unsigned), stream_), "ICP: reset tickets");
+  checkCuda(cudaMemsetAsync(tickets_.ptr(), 0, tickets_.size() * sizeof(unsigned), stream_),
+            "ICP: reset tickets");
 
   SolveParams prm{};
   prm.max_dist2 = params_.max_correspondence_distance * params_.max_correspondence_distance;
-  prm.rotation_threshold = params_.transformation_rotation_epsilon > 0 ? params_.transformation_rotation_epsilon
-                                                                       : 1.0 - params_.transformation_epsilon;
+  prm.rotation_threshold = params_.transformation_rotation_epsilon > 0
+                               ? params_.transformation_rotation_epsilon
+                               : 1.0 - params_.transformation_epsilon;
   prm.translation_threshold = params_.transformation_epsilon;
   prm.relative_mse = params_.euclidean_fitness_epsilon;
   prm.absolute_mse = params_.mse_threshold_absolute;
@@ -466,7 +486,7 @@ std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4
   volatile unsigned* done_flag = done_host_;
   *done_flag = 0;
   emptySourcesKernel<<<unsigned((ns + 127) / 128), 128, 0, stream_>>>(source_meta_.ptr(), std::uint32_t(ns),
-                                                                       sums_.ptr());
+                                                                      sums_.ptr());
   checkCuda(cudaGetLastError(), "ICP: empty sources");
   // PCL's loop is do-while: at least one iteration runs whatever max_iterations says.
   const int launches = std::max(1, params_.max_iterations);
@@ -482,25 +502,44 @@ std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4
       const DeviceGraphView g = target_->view();
       const std::size_t n = host_points_.size();
       switch (target_->groupSize()) {
-        case 1: launchCorrespond<1>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2, hints_.ptr(), corr_d2_.ptr(), stream_); break;
-        case 2: launchCorrespond<2>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2, hints_.ptr(), corr_d2_.ptr(), stream_); break;
-        case 8: launchCorrespond<8>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2, hints_.ptr(), corr_d2_.ptr(), stream_); break;
-        case 16: launchCorrespond<16>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2, hints_.ptr(), corr_d2_.ptr(), stream_); break;
-        case 32: launchCorrespond<32>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2, hints_.ptr(), corr_d2_.ptr(), stream_); break;
-        default: launchCorrespond<4>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2, hints_.ptr(), corr_d2_.ptr(), stream_); break;
+        case 1:
+          launchCorrespond<1>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2,
+                              hints_.ptr(), corr_d2_.ptr(), stream_);
+          break;
+        case 2:
+          launchCorrespond<2>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2,
+                              hints_.ptr(), corr_d2_.ptr(), stream_);
+          break;
+        case 8:
+          launchCorrespond<8>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2,
+                              hints_.ptr(), corr_d2_.ptr(), stream_);
+          break;
+        case 16:
+          launchCorrespond<16>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2,
+                               hints_.ptr(), corr_d2_.ptr(), stream_);
+          break;
+        case 32:
+          launchCorrespond<32>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2,
+                               hints_.ptr(), corr_d2_.ptr(), stream_);
+          break;
+        default:
+          launchCorrespond<4>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2,
+                              hints_.ptr(), corr_d2_.ptr(), stream_);
+          break;
       }
-      accumulateKernel<<<num_blocks_, kBlock, 0, stream_>>>(g, points_.ptr(), hints_.ptr(), corr_d2_.ptr(),
-                                                            block_source_.ptr(), source_meta_.ptr(), state_ptr,
-                                                            partials_.ptr(), tickets_.ptr(), sums_.ptr());
+      accumulateKernel<<<num_blocks_, kBlock, 0, stream_>>>(
+          g, points_.ptr(), hints_.ptr(), corr_d2_.ptr(), block_source_.ptr(), source_meta_.ptr(), state_ptr,
+          partials_.ptr(), tickets_.ptr(), sums_.ptr());
     }
     solveKernel<<<unsigned((ns + 31) / 32), 32, 0, stream_>>>(sums_.ptr(), std::uint32_t(ns), state_ptr, prm,
-                                                             done_count_.ptr(), done_host_dev_);
+                                                              done_count_.ptr(), done_host_dev_);
     checkCuda(cudaGetLastError(), "ICP: iteration launch");
     checkCuda(cudaEventRecord(events_[it % kAhead], stream_), "ICP: event");
   }
   std::vector<SourceState> fin(ns);
-  checkCuda(cudaMemcpyAsync(fin.data(), states_.ptr(), ns * sizeof(SourceState), cudaMemcpyDeviceToHost, stream_),
-            "ICP: download state");
+  checkCuda(
+      cudaMemcpyAsync(fin.data(), states_.ptr(), ns * sizeof(SourceState), cudaMemcpyDeviceToHost, stream_),
+      "ICP: download state");
   checkCuda(cudaStreamSynchronize(stream_), "ICP: align");
 
   std::vector<IcpResult> out(ns);
@@ -517,7 +556,8 @@ std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4
     r.transformation[15] = 1.0;
     r.iterations = st.iterations;
     r.state = static_cast<ConvergenceState>(st.state);
-    r.converged = r.state != ConvergenceState::NotConverged && r.state != ConvergenceState::NoCorrespondences &&
+    r.converged = r.state != ConvergenceState::NotConverged &&
+                  r.state != ConvergenceState::NoCorrespondences &&
                   r.state != ConvergenceState::FailureAfterMaxIterations;
     r.mse = st.mse;
     r.correspondences = st.count;

@@ -55,8 +55,9 @@ __device__ __forceinline__ std::uint32_t startVertex(const DeviceGraphView& g, f
 /// exact (a non-nearest vertex always has a strictly nearer Delaunay neighbour, DESIGN.md §3) and
 /// terminating (the distance strictly decreases). Every lane of the tile returns the same result.
 template <int G, typename Tile>
-__device__ __forceinline__ std::uint32_t walkTile(const Tile& tile, const DeviceGraphView& g, float qx, float qy,
-                                                  float qz, std::uint32_t v, double& d2_out, std::uint32_t& steps) {
+__device__ __forceinline__ std::uint32_t walkTile(const Tile& tile, const DeviceGraphView& g, float qx,
+                                                  float qy, float qz, std::uint32_t v, double& d2_out,
+                                                  std::uint32_t& steps) {
   double d2 = dist2(__ldg(g.points + v), qx, qy, qz);
   std::uint32_t s = 0;
   const unsigned lane = G == 1 ? 0u : tile.thread_rank();

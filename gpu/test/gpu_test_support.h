@@ -3,6 +3,7 @@
 #pragma once
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cstdint>
 #include <cstdlib>
@@ -11,7 +12,6 @@
 #include <random>
 #include <sstream>
 #include <string>
-#include <sys/stat.h>
 #include <vector>
 
 #include "pcl_delaunay_walk/core/point_file.h"
@@ -21,10 +21,10 @@
 namespace dwgpu_test {
 
 /// Skips the current test where no CUDA device exists (CI has none; the device machine has one).
-#define DW_REQUIRE_CUDA_DEVICE()                                                                             \
-  do {                                                                                                       \
-    if (pcl::gpu::cudaDeviceCount() == 0)                                                                    \
-      GTEST_SKIP() << "no CUDA device: GPU tests run on a machine with one (scripts/device_run.sh)";         \
+#define DW_REQUIRE_CUDA_DEVICE()                                                                     \
+  do {                                                                                               \
+    if (pcl::gpu::cudaDeviceCount() == 0)                                                            \
+      GTEST_SKIP() << "no CUDA device: GPU tests run on a machine with one (scripts/device_run.sh)"; \
   } while (0)
 
 inline bool fileExists(const std::string& p) {
@@ -42,10 +42,11 @@ inline std::string dataPath(const std::string& rel) {
   return base + "/" + rel;
 }
 
-#define DW_REQUIRE_DATA(path)                                                                                \
-  do {                                                                                                       \
-    if (!dwgpu_test::fileExists(path))                                                                       \
-      GTEST_SKIP() << "real data not found: " << (path) << " (set DW_GPU_DATA_DIR or provide ../shared/data)"; \
+#define DW_REQUIRE_DATA(path)                                             \
+  do {                                                                    \
+    if (!dwgpu_test::fileExists(path))                                    \
+      GTEST_SKIP() << "real data not found: " << (path)                   \
+                   << " (set DW_GPU_DATA_DIR or provide ../shared/data)"; \
   } while (0)
 
 /// xyz of a PCD file with float x y z fields, DATA ascii or binary (not binary_compressed).

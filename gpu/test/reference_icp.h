@@ -4,7 +4,6 @@
 #pragma once
 
 #include <Eigen/Dense>
-
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -22,7 +21,8 @@ struct ReferenceIcpResult {
   bool converged = false;
 };
 
-inline ReferenceIcpResult referenceIcp(const dw::NeighbourSearch& target, const std::vector<double>& source_xyz,
+inline ReferenceIcpResult referenceIcp(const dw::NeighbourSearch& target,
+                                       const std::vector<double>& source_xyz,
                                        const pcl::gpu::IcpParameters& p, const Eigen::Matrix4d& guess) {
   using pcl::gpu::ConvergenceState;
   const dw::DelaunayGraph& g = target.graph();

@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
-
 #include <cstdio>
 #include <fstream>
 #include <memory>
@@ -14,12 +13,12 @@
 
 namespace {
 
+using dwgpu_test::fromEigen;
+using dwgpu_test::toEigen;
 using pcl::gpu::ConvergenceState;
 using pcl::gpu::DelaunayWalk;
 using pcl::gpu::IcpParameters;
 using pcl::gpu::IterativeClosestPoint;
-using dwgpu_test::fromEigen;
-using dwgpu_test::toEigen;
 
 struct Target {
   std::shared_ptr<const dw::DelaunayGraph> graph;
@@ -36,8 +35,8 @@ struct Target {
 std::vector<double> transformed(const std::vector<double>& xyz, const Eigen::Matrix4d& m) {
   std::vector<double> out(xyz.size());
   for (std::size_t i = 0; i + 2 < xyz.size(); i += 3) {
-    const Eigen::Vector3d p = m.topLeftCorner<3, 3>() * Eigen::Vector3d(xyz[i], xyz[i + 1], xyz[i + 2]) +
-                              m.topRightCorner<3, 1>();
+    const Eigen::Vector3d p =
+        m.topLeftCorner<3, 3>() * Eigen::Vector3d(xyz[i], xyz[i + 1], xyz[i + 2]) + m.topRightCorner<3, 1>();
     out[i] = p.x();
     out[i + 1] = p.y();
     out[i + 2] = p.z();
@@ -61,10 +60,11 @@ void expectSameAsReference(const Target& target, const std::vector<double>& sour
   icp.setInputSource(dw::PointView::fromDouble(source.data(), source.size() / 3));
   const auto res = icp.align(fromEigen(guess));
   const Eigen::Matrix4d got = toEigen(res.transformation);
-  std::printf("[%s] reference: %d iterations (%s); GPU: %d iterations (%s), %u correspondences, MSE %.3g; "
-              "max |diff| %.2e\n",
-              what, ref.iterations, pcl::gpu::toString(ref.state), res.iterations, pcl::gpu::toString(res.state),
-              res.correspondences, res.mse, (got - ref.transformation).cwiseAbs().maxCoeff());
+  std::printf(
+      "[%s] reference: %d iterations (%s); GPU: %d iterations (%s), %u correspondences, MSE %.3g; "
+      "max |diff| %.2e\n",
+      what, ref.iterations, pcl::gpu::toString(ref.state), res.iterations, pcl::gpu::toString(res.state),
+      res.correspondences, res.mse, (got - ref.transformation).cwiseAbs().maxCoeff());
   EXPECT_TRUE(got.isApprox(got, 0.0));
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c)
@@ -146,7 +146,8 @@ TEST_F(GpuIcp, BatchEqualsOneByOne) {
   const auto base = dwgpu_test::readXyz(sp);
   std::vector<std::vector<double>> sources;
   for (int s = 0; s < 5; ++s)
-    sources.push_back(transformed(base, motion(0.02 * (s + 1), {1.0, 0.5 * s, 0.3}, {0.001 * s, 0.002, -0.001 * s})));
+    sources.push_back(
+        transformed(base, motion(0.02 * (s + 1), {1.0, 0.5 * s, 0.3}, {0.001 * s, 0.002, -0.001 * s})));
   sources.emplace_back();  // an empty source: no correspondences, as PCL reports it
   IcpParameters p;
   p.max_iterations = 30;
@@ -216,8 +217,8 @@ TEST_F(GpuIcp, BadInputThrows) {
   const auto s = dwgpu_test::randomCloud(100, 4);
   icp.addSource(dw::PointView::fromDouble(s.data(), 100));
   icp.addSource(dw::PointView::fromDouble(s.data(), 100));
-  EXPECT_THROW(icp.align(), dw::Error);                                     // two sources: use alignAll
-  EXPECT_THROW(icp.alignAll({pcl::gpu::identityMatrix4d()}), dw::Error);    // one guess for two sources
+  EXPECT_THROW(icp.align(), dw::Error);                                   // two sources: use alignAll
+  EXPECT_THROW(icp.alignAll({pcl::gpu::identityMatrix4d()}), dw::Error);  // one guess for two sources
   auto bad = pcl::gpu::identityMatrix4d();
   bad[3] = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(icp.alignAll({bad, bad}), dw::Error);

@@ -14,9 +14,9 @@
 
 namespace {
 
+using dwgpu_test::exactDist2;
 using pcl::gpu::DelaunayWalk;
 using pcl::gpu::DeviceArray;
-using dwgpu_test::exactDist2;
 constexpr std::uint32_t kInv = dw::kInvalidIndex;
 
 dw::DelaunayGraph buildGraph(const std::vector<double>& xyz) {
@@ -35,7 +35,6 @@ std::vector<double> hostMinDist2(const dw::DelaunayGraph& g, const std::vector<f
   return out;
 }
 
-
 std::vector<float4> randomQueries(std::size_t n, std::uint32_t seed, float lo, float hi) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(lo, hi);
@@ -49,7 +48,8 @@ struct NnOut {
   std::vector<float> d2;
 };
 
-NnOut runNearest(const DelaunayWalk& w, const std::vector<float4>& q, const std::vector<std::uint32_t>* hints) {
+NnOut runNearest(const DelaunayWalk& w, const std::vector<float4>& q,
+                 const std::vector<std::uint32_t>* hints) {
   DeviceArray<float4> dq;
   dq.upload(q);
   DeviceArray<std::uint32_t> dh, dv, ds;
@@ -81,8 +81,8 @@ void expectExact(const dw::DelaunayGraph& g, const std::vector<float4>& q, const
     const double own = exactDist2(p.x, p.y, p.z, q[i].x, q[i].y, q[i].z);
     if (float(own) != o.d2[i] || own != ref[i]) {
       if (bad < 5)
-        ADD_FAILURE() << what << ": query " << i << " got vertex " << o.v[i] << " d2 " << o.d2[i] << " (own " << own
-                      << "), brute force " << ref[i];
+        ADD_FAILURE() << what << ": query " << i << " got vertex " << o.v[i] << " d2 " << o.d2[i] << " (own "
+                      << own << "), brute force " << ref[i];
       ++bad;
     }
   }
@@ -192,7 +192,8 @@ TEST_F(GpuWalk, CoplanarCollinearAndDuplicatePoints) {
     const double t = u(rng);
     line.insert(line.end(), {t, 2 * t + 1, -t});
   }
-  for (int i = 0; i < 500; ++i) plane.insert(plane.end(), {plane[3 * i], plane[3 * i + 1], 0.0});  // duplicates
+  for (int i = 0; i < 500; ++i)
+    plane.insert(plane.end(), {plane[3 * i], plane[3 * i + 1], 0.0});  // duplicates
   for (const auto* xyz : {&plane, &line}) {
     const auto g = buildGraph(*xyz);
     DelaunayWalk w(g);

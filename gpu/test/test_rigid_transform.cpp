@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
-
 #include <random>
 
 #include "pcl_delaunay_walk/gpu/rigid_transform.h"
@@ -32,7 +31,8 @@ TEST(RigidTransform, HornEqualsSvdOnRandomPointSets) {
   std::mt19937 rng(17);
   std::normal_distribution<double> n(0.0, 1.0);
   for (int trial = 0; trial < 200; ++trial) {
-    const Eigen::Matrix3d rot = Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized().toRotationMatrix();
+    const Eigen::Matrix3d rot =
+        Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized().toRotationMatrix();
     Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
     for (int i = 0; i < 30; ++i) {
       const Eigen::Vector3d p(n(rng), n(rng), 0.2 * n(rng));

@@ -1,9 +1,9 @@
 // Explicit instantiations of the walk correspondence estimator for same-type pairs of PCL xyz points.
-#include <pcl/point_types.h>
-
 #include "pcl_delaunay_walk/registration/impl/correspondence_estimation_delaunay_walk.hpp"
 
-#define DW_INSTANTIATE_CE(T) \
+#include <pcl/point_types.h>
+
+#define DW_INSTANTIATE_CE(T)                                                           \
   template class pcl::registration::CorrespondenceEstimationDelaunayWalk<T, T, float>; \
   template class pcl::registration::CorrespondenceEstimationDelaunayWalk<T, T, double>;
 

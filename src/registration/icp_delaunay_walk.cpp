@@ -3,11 +3,11 @@
 // Eigen (false positives on unaligned loads); they are not ours to fix, so they are silenced here only.
 #pragma GCC diagnostic ignored "-Warray-bounds"
 #pragma GCC diagnostic ignored "-Wuse-after-free"
-#include <pcl/point_types.h>
-
 #include "pcl_delaunay_walk/registration/impl/icp_delaunay_walk.hpp"
 
-#define DW_INSTANTIATE_ICP(T) \
+#include <pcl/point_types.h>
+
+#define DW_INSTANTIATE_ICP(T)                                         \
   template class pcl::IterativeClosestPointDelaunayWalk<T, T, float>; \
   template class pcl::IterativeClosestPointDelaunayWalk<T, T, double>;
 

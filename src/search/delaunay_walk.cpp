@@ -1,8 +1,10 @@
 // Explicit instantiations of pcl::search::DelaunayWalk and KdTreeDelaunayWalk for PCL's xyz point types.
-#include <pcl/impl/instantiate.hpp>
+#include "pcl_delaunay_walk/search/impl/delaunay_walk.hpp"
+
 #include <pcl/point_types.h>
 
-#include "pcl_delaunay_walk/search/impl/delaunay_walk.hpp"
+#include <pcl/impl/instantiate.hpp>
+
 #include "pcl_delaunay_walk/search/impl/kdtree_delaunay_walk.hpp"
 
 PCL_INSTANTIATE(DelaunayWalk, PCL_XYZ_POINT_TYPES)

@@ -69,15 +69,16 @@ WalkQuery::WalkQuery(dw::DelaunayGraph::ConstPtr graph, std::vector<float> xyz,
 void WalkQuery::checkGraphMatches(const dw::DelaunayGraph& g, const std::vector<float>& xyz) {
   const std::size_t n = xyz.size() / 3;
   if (g.numInputPoints() != n)
-    throw dw::Error("pcl::search::DelaunayWalk: the graph was built from " + std::to_string(g.numInputPoints()) +
-                    " points but the cloud has " + std::to_string(n));
+    throw dw::Error("pcl::search::DelaunayWalk: the graph was built from " +
+                    std::to_string(g.numInputPoints()) + " points but the cloud has " + std::to_string(n));
   for (std::size_t i = 0; i < n; ++i) {
     const float* p = &xyz[3 * i];
     const bool finite = std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
     const dw::index_t v = g.input_to_vertex[i];
     if (!finite) {
       if (v != dw::kInvalidIndex)
-        throw dw::Error("pcl::search::DelaunayWalk: the graph has a vertex for non-finite point " + std::to_string(i));
+        throw dw::Error("pcl::search::DelaunayWalk: the graph has a vertex for non-finite point " +
+                        std::to_string(i));
       continue;
     }
     if (v >= g.numVertices())
@@ -132,7 +133,8 @@ bool WalkQuery::nearest(const float q[3], dw::StartStrategy strategy, dw::index_
   if (!locate(q, strategy, hint, ql, qe, nn, stats)) return false;
   const dw::DelaunayGraph& g = search_->graph();
   // All originals of the nearest vertex share its local distance; pick among them in the caller metric.
-  WalkNeighbour best{distance(q, &vertex_xyz_[3 * static_cast<std::size_t>(nn.vertex)]), vertex_cloud_[nn.vertex]};
+  WalkNeighbour best{distance(q, &vertex_xyz_[3 * static_cast<std::size_t>(nn.vertex)]),
+                     vertex_cloud_[nn.vertex]};
   if (vertex_mixed_[nn.vertex]) {
     best.index = -1;
     for (dw::index_t o = g.originals_offsets[nn.vertex]; o < g.originals_offsets[nn.vertex + 1]; ++o) {
@@ -206,7 +208,8 @@ std::size_t WalkQuery::knn(const float q[3], std::size_t k, dw::StartStrategy st
     collect(q, s.inputs, s.inputs.size(), out);
   }
   if (out.size() > k) {
-    std::partial_sort(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(k), out.end(), byDistanceThenIndex);
+    std::partial_sort(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(k), out.end(),
+                      byDistanceThenIndex);
     out.resize(k);
   } else {
     std::sort(out.begin(), out.end(), byDistanceThenIndex);
@@ -215,7 +218,8 @@ std::size_t WalkQuery::knn(const float q[3], std::size_t k, dw::StartStrategy st
 }
 
 std::size_t WalkQuery::radius(const float q[3], double radius, std::size_t max_nn, dw::StartStrategy strategy,
-                              dw::index_t hint, std::vector<WalkNeighbour>& out, WalkQueryStats* stats) const {
+                              dw::index_t hint, std::vector<WalkNeighbour>& out,
+                              WalkQueryStats* stats) const {
   out.clear();
   if (!(radius >= 0.0)) return 0;
   dw::Vec3f ql;

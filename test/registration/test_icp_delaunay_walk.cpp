@@ -4,13 +4,6 @@
 // PCL's SVD transformation estimation, instantiated here, trips GCC 12 false positives inside Eigen.
 #pragma GCC diagnostic ignored "-Warray-bounds"
 #pragma GCC diagnostic ignored "-Wuse-after-free"
-#include <cmath>
-#include <cstdio>
-#include <fstream>
-#include <random>
-#include <sstream>
-
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <pcl/common/transforms.h>
 #include <pcl/features/normal_3d.h>
@@ -20,6 +13,13 @@
 #include <pcl/registration/gicp.h>
 #include <pcl/registration/icp.h>
 #include <pcl/registration/transformation_estimation_point_to_plane_lls.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <sstream>
 
 #include "pcl_delaunay_walk/core/point_file.h"
 #include "pcl_delaunay_walk/registration/correspondence_estimation_delaunay_walk.h"
@@ -32,7 +32,9 @@ using P = pcl::PointXYZ;
 using Cloud = pcl::PointCloud<P>;
 using Matrix4 = Eigen::Matrix4f;
 
-std::string shared(const std::string& rel) { return std::string(DW_SHARED_DATA_DIR) + "/" + rel; }
+std::string shared(const std::string& rel) {
+  return std::string(DW_SHARED_DATA_DIR) + "/" + rel;
+}
 
 Cloud::Ptr load(const std::string& rel) {
   const std::string path = shared(rel);
@@ -59,7 +61,8 @@ Cloud::Ptr voxel(const Cloud::Ptr& c, float leaf) {
 
 Matrix4 rpy(double roll_deg, double pitch_deg, double yaw_deg, Eigen::Vector3f t = Eigen::Vector3f::Zero()) {
   const double d = M_PI / 180.0;
-  Eigen::Affine3f a = Eigen::Translation3f(t) * Eigen::AngleAxisf(float(yaw_deg * d), Eigen::Vector3f::UnitZ()) *
+  Eigen::Affine3f a = Eigen::Translation3f(t) *
+                      Eigen::AngleAxisf(float(yaw_deg * d), Eigen::Vector3f::UnitZ()) *
                       Eigen::AngleAxisf(float(pitch_deg * d), Eigen::Vector3f::UnitY()) *
                       Eigen::AngleAxisf(float(roll_deg * d), Eigen::Vector3f::UnitX());
   return a.matrix();
@@ -110,12 +113,14 @@ void expectSame(const Outcome& a, const Outcome& b, const std::string& what) {
   EXPECT_EQ(a.iterations, b.iterations) << what;
   EXPECT_EQ(a.converged, b.converged) << what;
   for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) EXPECT_NEAR(a.transform(r, c), b.transform(r, c), 1e-5) << what << " (" << r << "," << c << ")";
+    for (int c = 0; c < 4; ++c)
+      EXPECT_NEAR(a.transform(r, c), b.transform(r, c), 1e-5) << what << " (" << r << "," << c << ")";
   EXPECT_NEAR(a.fitness, b.fitness, 1e-6 * std::max(1.0, a.fitness)) << what;
 }
 
 /// Stock ICP vs the two ways of installing the walk, on one problem.
-void compareAll(const Cloud::Ptr& source, const Cloud::Ptr& target, const IcpSetup& s, const std::string& what) {
+void compareAll(const Cloud::Ptr& source, const Cloud::Ptr& target, const IcpSetup& s,
+                const std::string& what) {
   StockIcp stock;
   const Outcome ref = run(stock, source, target, s);
 
@@ -169,7 +174,8 @@ TEST(IcpDelaunayWalk, PclBunnyPair) {
 TEST(IcpDelaunayWalk, StanfordBunnyScansAgainstTruePose) {
   auto target = load("models/bun000.ply"), source = load("models/bun045.ply");
   std::ifstream conf(shared("models/bun.conf"));
-  if (!target || !source || !conf) GTEST_SKIP() << "shared data models/bun000.ply, bun045.ply, bun.conf absent";
+  if (!target || !source || !conf)
+    GTEST_SKIP() << "shared data models/bun000.ply, bun045.ply, bun.conf absent";
   const Matrix4 truth = bunny045ToBun000(conf);
   ASSERT_FALSE(truth.isZero());
   target = voxel(target, 0.002f);
@@ -180,8 +186,9 @@ TEST(IcpDelaunayWalk, StanfordBunnyScansAgainstTruePose) {
   compareAll(source, target, s, "bun045->bun000");
   WalkIcp icp;
   const Outcome o = run(icp, source, target, s);
-  std::printf("bunny: guess %.3f deg, result %.3f deg %.5f m, iterations %d\n", rotationErrorDeg(s.guess, truth),
-              rotationErrorDeg(o.transform, truth), (o.transform.block<3, 1>(0, 3) - truth.block<3, 1>(0, 3)).norm(), o.iterations);
+  std::printf("bunny: guess %.3f deg, result %.3f deg %.5f m, iterations %d\n",
+              rotationErrorDeg(s.guess, truth), rotationErrorDeg(o.transform, truth),
+              (o.transform.block<3, 1>(0, 3) - truth.block<3, 1>(0, 3)).norm(), o.iterations);
   auto within = [&](const Matrix4& m) {
     Cloud moved;
     pcl::transformPointCloud(*source, moved, m);
@@ -212,7 +219,8 @@ TEST(IcpDelaunayWalk, DragonToItselfSeedProtocol) {
       const Matrix4 m = rpy(axis == 0 ? deg : 0, axis == 1 ? deg : 0, axis == 2 ? deg : 0);
       Cloud::Ptr source(new Cloud);
       pcl::transformPointCloud(*dragon, *source, m);
-      compareAll(source, dragon, IcpSetup(), "dragon axis " + std::to_string(axis) + " " + std::to_string(deg) + " deg");
+      compareAll(source, dragon, IcpSetup(),
+                 "dragon axis " + std::to_string(axis) + " " + std::to_string(deg) + " deg");
     }
 }
 
@@ -232,7 +240,8 @@ TEST(IcpDelaunayWalk, DragonToItselfAllRotationCombinations) {
         StockIcp stock;
         WalkIcp walk;
         const Outcome a = run(stock, source, model, IcpSetup()), b = run(walk, source, model, IcpSetup());
-        const std::string what = "rpy " + std::to_string(r) + " " + std::to_string(p) + " " + std::to_string(y);
+        const std::string what =
+            "rpy " + std::to_string(r) + " " + std::to_string(p) + " " + std::to_string(y);
         EXPECT_EQ(a.converged, b.converged) << what;
         for (int i = 0; i < 4; ++i)
           for (int j = 0; j < 4; ++j) EXPECT_NEAR(a.transform(i, j), b.transform(i, j), 1e-5) << what;
@@ -240,7 +249,8 @@ TEST(IcpDelaunayWalk, DragonToItselfAllRotationCombinations) {
         if (a.iterations == b.iterations)
           ++equal_iterations;
         else
-          std::printf("[ info ] %s: %d vs %d iterations (transforms agree)\n", what.c_str(), a.iterations, b.iterations);
+          std::printf("[ info ] %s: %d vs %d iterations (transforms agree)\n", what.c_str(), a.iterations,
+                      b.iterations);
         ++runs;
       }
   // An exact tie (two target points at identical float distance) is resolved by lowest index here and
@@ -298,7 +308,8 @@ TEST(IcpDelaunayWalk, SourceWithNaNs) {
   pcl::transformPointCloud(*dragon, *source, rpy(10, 0, 10));
   Cloud::Ptr with_nan(new Cloud(*source));
   with_nan->is_dense = false;
-  for (std::size_t i = 0; i < with_nan->size(); i += 13) (*with_nan)[i].x = std::numeric_limits<float>::quiet_NaN();
+  for (std::size_t i = 0; i < with_nan->size(); i += 13)
+    (*with_nan)[i].x = std::numeric_limits<float>::quiet_NaN();
   Cloud::Ptr clean(new Cloud);
   pcl::Indices kept;
   pcl::removeNaNFromPointCloud(*with_nan, *clean, kept);
@@ -321,7 +332,8 @@ TEST(IcpDelaunayWalk, TargetChangesBetweenAligns) {
   expectSame(run(stock, source, dragon, IcpSetup()), run(walk, source, dragon, IcpSetup()), "first target");
   const auto& search = walk.getSearchMethodWalk();
   EXPECT_EQ(search->getNumberOfBuilds(), 1u);
-  expectSame(run(stock, source, copy, IcpSetup()), run(walk, source, copy, IcpSetup()), "same content, new object");
+  expectSame(run(stock, source, copy, IcpSetup()), run(walk, source, copy, IcpSetup()),
+             "same content, new object");
   EXPECT_EQ(search->getNumberOfBuilds(), 1u) << "an unchanged target must keep its graph";
   EXPECT_EQ(walk.getGraphBuildSeconds(), 0.0);
   expectSame(run(stock, source, other, IcpSetup()), run(walk, source, other, IcpSetup()), "changed target");
@@ -471,7 +483,8 @@ TEST(IcpDelaunayWalk, PointToPlane) {
     if (walk) {
       auto tree = std::make_shared<pcl::search::KdTreeDelaunayWalk<PN>>();
       icp.setSearchMethodTarget(tree);
-      icp.setCorrespondenceEstimation(std::make_shared<pcl::registration::CorrespondenceEstimationDelaunayWalk<PN, PN>>());
+      icp.setCorrespondenceEstimation(
+          std::make_shared<pcl::registration::CorrespondenceEstimationDelaunayWalk<PN, PN>>());
     }
     icp.setMaximumIterations(60);
     icp.setTransformationEpsilon(1e-10);

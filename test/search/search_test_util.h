@@ -2,6 +2,11 @@
 // brute-force reference in PCL's metric (FLANN's float squared distance on the cloud's coordinates).
 #pragma once
 
+#include <gtest/gtest.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -9,19 +14,18 @@
 #include <string>
 #include <vector>
 
-#include <gtest/gtest.h>
-#include <pcl/io/pcd_io.h>
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
-
 #include "pcl_delaunay_walk/core/point_file.h"
 
 namespace dw_pcl_test {
 
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 
-inline std::string sharedData(const std::string& rel) { return std::string(DW_SHARED_DATA_DIR) + "/" + rel; }
-inline bool exists(const std::string& p) { return std::ifstream(p).good(); }
+inline std::string sharedData(const std::string& rel) {
+  return std::string(DW_SHARED_DATA_DIR) + "/" + rel;
+}
+inline bool exists(const std::string& p) {
+  return std::ifstream(p).good();
+}
 
 /// Loads .pcd with PCL and .ply / .bin with the core's reader (it copes with the Stanford range-grid
 /// PLYs). Returns null if the file is absent, so callers can GTEST_SKIP.
@@ -67,7 +71,9 @@ inline float flannDistance(const pcl::PointXYZ& a, const pcl::PointXYZ& b) {
   return r;
 }
 
-inline bool finite(const pcl::PointXYZ& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+inline bool finite(const pcl::PointXYZ& p) {
+  return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+}
 
 struct Ref {
   std::vector<int> idx;
@@ -120,8 +126,9 @@ inline Ref bruteRadius(const Cloud& c, const pcl::PointXYZ& q, double radius, un
 
 /// Exactness: the same distances, element by element, bit for bit; indices may differ only among
 /// points at exactly equal distance (ties), and each reported index must be at its reported distance.
-inline void expectSameNeighbours(const Cloud& c, const pcl::PointXYZ& q, const Ref& ref, const pcl::Indices& idx,
-                                 const std::vector<float>& d2, const std::string& what) {
+inline void expectSameNeighbours(const Cloud& c, const pcl::PointXYZ& q, const Ref& ref,
+                                 const pcl::Indices& idx, const std::vector<float>& d2,
+                                 const std::string& what) {
   ASSERT_EQ(idx.size(), ref.idx.size()) << what;
   ASSERT_EQ(d2.size(), ref.d2.size()) << what;
   for (std::size_t i = 0; i < idx.size(); ++i) {
@@ -161,7 +168,8 @@ inline std::vector<pcl::PointXYZ> queriesFor(const Cloud& c, std::size_t n, unsi
       case 0: q.push_back(p); break;
       case 1: q.emplace_back(p.x + jit(rng), p.y + jit(rng), p.z + jit(rng)); break;
       default:
-        q.emplace_back(lo.x + u(rng) * (hi.x - lo.x), lo.y + u(rng) * (hi.y - lo.y), lo.z + u(rng) * (hi.z - lo.z));
+        q.emplace_back(lo.x + u(rng) * (hi.x - lo.x), lo.y + u(rng) * (hi.y - lo.y),
+                       lo.z + u(rng) * (hi.z - lo.z));
     }
   }
   return q;

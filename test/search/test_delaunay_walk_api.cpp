@@ -1,11 +1,11 @@
 // pcl::search::DelaunayWalk and KdTreeDelaunayWalk behave like pcl::search::KdTree through the whole
 // Search interface: index/subset semantics, batch forms, k > n, NaN queries, graph reuse and files.
+#include <pcl/search/kdtree.h>
+
 #include <cstdio>
 #include <fstream>
 #include <limits>
 #include <thread>
-
-#include <pcl/search/kdtree.h>
 
 #include "pcl_delaunay_walk/core/graph_io.h"
 #include "pcl_delaunay_walk/search/delaunay_walk.h"
@@ -188,7 +188,8 @@ TEST(DelaunayWalkApi, GraphFileRoundTripAndMismatch) {
 
 TEST(DelaunayWalkApi, KdTreeSubclassAnswersWithTheWalk) {
   auto c = uniformCloud(900, 8);
-  pcl::search::KdTreeDelaunayWalk<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTreeDelaunayWalk<pcl::PointXYZ>);
+  pcl::search::KdTreeDelaunayWalk<pcl::PointXYZ>::Ptr tree(
+      new pcl::search::KdTreeDelaunayWalk<pcl::PointXYZ>);
   pcl::search::KdTree<pcl::PointXYZ>::Ptr as_kdtree = tree;  // what Registration holds
   as_kdtree->setInputCloud(c);
   EXPECT_EQ(tree->getDelaunayWalk()->getNumberOfBuilds(), 1u);

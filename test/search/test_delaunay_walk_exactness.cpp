@@ -1,11 +1,11 @@
 // Exactness of pcl::search::DelaunayWalk against brute force in PCL's metric: NN, kNN (k = 1..32 and
 // k > n), radius (0 .. huge, with and without max_nn), every start strategy, on synthetic, degenerate
 // and real clouds.
+#include <pcl/search/kdtree.h>
+
 #include <array>
 #include <cstdio>
 #include <limits>
-
-#include <pcl/search/kdtree.h>
 
 #include "pcl_delaunay_walk/search/delaunay_walk.h"
 #include "search_test_util.h"
@@ -14,8 +14,8 @@ using namespace dw_pcl_test;
 
 namespace {
 
-const dw::StartStrategy kStrategies[] = {dw::StartStrategy::Zero, dw::StartStrategy::KdAnn, dw::StartStrategy::Pnn,
-                                         dw::StartStrategy::PnnOptimized};
+const dw::StartStrategy kStrategies[] = {dw::StartStrategy::Zero, dw::StartStrategy::KdAnn,
+                                         dw::StartStrategy::Pnn, dw::StartStrategy::PnnOptimized};
 
 /// Median nearest-neighbour spacing of a few points: the scale the radii are chosen from.
 float typicalSpacing(const Cloud& c) {
@@ -89,7 +89,9 @@ Cloud::Ptr fromXyz(const std::vector<std::array<float, 3>>& pts) {
 
 }  // namespace
 
-TEST(DelaunayWalkExactness, UniformRandom) { checkCloud(uniformCloud(3000, 1), 60, "uniform"); }
+TEST(DelaunayWalkExactness, UniformRandom) {
+  checkCloud(uniformCloud(3000, 1), 60, "uniform");
+}
 
 TEST(DelaunayWalkExactness, PointsOnASphereSurface) {
   Cloud::Ptr c(new Cloud);
@@ -107,7 +109,8 @@ TEST(DelaunayWalkExactness, TinyClouds) {
   checkCloud(Cloud::Ptr(new Cloud), 3, "empty");
   std::vector<std::array<float, 3>> pts = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}};
   for (std::size_t n = 1; n <= pts.size(); ++n)
-    checkCloud(fromXyz({pts.begin(), pts.begin() + static_cast<std::ptrdiff_t>(n)}), 12, "tiny" + std::to_string(n));
+    checkCloud(fromXyz({pts.begin(), pts.begin() + static_cast<std::ptrdiff_t>(n)}), 12,
+               "tiny" + std::to_string(n));
 }
 
 TEST(DelaunayWalkExactness, NaNsAndDuplicates) {

@@ -71,7 +71,8 @@ TEST(PclAlgorithms, NormalEstimationWithSearchSurfaceAndIndices) {
   ne.setKSearch(20);
   ne.setSearchMethod(pcl::search::KdTree<pcl::PointXYZ>::Ptr(new pcl::search::KdTree<pcl::PointXYZ>));
   ne.compute(a);
-  ne.setSearchMethod(pcl::search::DelaunayWalk<pcl::PointXYZ>::Ptr(new pcl::search::DelaunayWalk<pcl::PointXYZ>));
+  ne.setSearchMethod(
+      pcl::search::DelaunayWalk<pcl::PointXYZ>::Ptr(new pcl::search::DelaunayWalk<pcl::PointXYZ>));
   ne.compute(b);
   expectSameNormals(a, b);
 }
@@ -117,7 +118,8 @@ TEST(PclAlgorithms, EuclideanClusterExtraction) {
     return sets;
   };
   const auto a = clusters(pcl::search::KdTree<pcl::PointXYZ>::Ptr(new pcl::search::KdTree<pcl::PointXYZ>));
-  const auto b = clusters(pcl::search::DelaunayWalk<pcl::PointXYZ>::Ptr(new pcl::search::DelaunayWalk<pcl::PointXYZ>));
+  const auto b =
+      clusters(pcl::search::DelaunayWalk<pcl::PointXYZ>::Ptr(new pcl::search::DelaunayWalk<pcl::PointXYZ>));
   ASSERT_GT(a.size(), 3u);
   EXPECT_EQ(a, b);
 }

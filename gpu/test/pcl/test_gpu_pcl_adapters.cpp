@@ -1,7 +1,6 @@
 // The PCL adapters (compiled only where PCL exists): cloud views, transforms, settings taken from a
 // pcl::IterativeClosestPoint, and, where a GPU exists too, a registration through them.
 #include <gtest/gtest.h>
-
 #include <pcl/point_types.h>
 
 #include <cmath>
@@ -55,7 +54,8 @@ TEST(GpuPclAdapters, TransformsRoundTripAndSettingsComeFromPcl) {
 }
 
 TEST(GpuPclAdapters, AlignsAPclCloud) {
-  if (pcl::gpu::cudaDeviceCount() == 0) GTEST_SKIP() << "no CUDA device: the GPU part runs on a machine with one";
+  if (pcl::gpu::cudaDeviceCount() == 0)
+    GTEST_SKIP() << "no CUDA device: the GPU part runs on a machine with one";
   pcl::PointCloud<pcl::PointXYZ> target, source;
   for (int i = 0; i < 20; ++i)
     for (int j = 0; j < 20; ++j) {

@@ -3,10 +3,10 @@
 /// Anderson et al. 2022, §4): a drop-in for pcl::registration::CorrespondenceEstimation.
 #pragma once
 
+#include <pcl/registration/correspondence_estimation.h>
+
 #include <cstdint>
 #include <vector>
-
-#include <pcl/registration/correspondence_estimation.h>
 
 #include "pcl_delaunay_walk/search/delaunay_walk.h"
 #include "pcl_delaunay_walk/search/kdtree_delaunay_walk.h"
@@ -23,9 +23,7 @@ struct DelaunayWalkIterationStats {
   double nn_seconds = 0.0;          ///< wall time of the nearest-neighbour searches
 
   /** \brief Mean walk moves per query. */
-  double
-  meanWalkSteps() const
-  {
+  double meanWalkSteps() const {
     return queries ? static_cast<double>(walk_steps) / static_cast<double>(queries) : 0.0;
   }
 };
@@ -48,7 +46,7 @@ struct DelaunayWalkIterationStats {
  */
 template <typename PointSource, typename PointTarget, typename Scalar = float>
 class CorrespondenceEstimationDelaunayWalk
-: public CorrespondenceEstimationBase<PointSource, PointTarget, Scalar> {
+    : public CorrespondenceEstimationBase<PointSource, PointTarget, Scalar> {
  public:
   using Base = CorrespondenceEstimationBase<PointSource, PointTarget, Scalar>;
   using Ptr = shared_ptr<CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>>;
@@ -80,100 +78,64 @@ class CorrespondenceEstimationDelaunayWalk
   /** \brief Set the walk search to use (and share).
    * \param[in] walk the walk search (must not be null)
    */
-  void
-  setSearchMethodWalk(const WalkSearchPtr& walk);
+  void setSearchMethodWalk(const WalkSearchPtr& walk);
 
   /** \brief The walk search in use. */
-  const WalkSearchPtr&
-  getSearchMethodWalk() const
-  {
-    return walk_;
-  }
+  const WalkSearchPtr& getSearchMethodWalk() const { return walk_; }
 
   /** \brief Set the start strategy of the walks: Zero, KdAnn, Pnn (previous correspondence, Zero in
    * the first iteration) or PnnOptimized (default: previous correspondence, KD-ANN in the first).
    * \param[in] strategy the start strategy
    */
-  void
-  setStartStrategy(dw::StartStrategy strategy)
-  {
-    strategy_ = strategy;
-  }
+  void setStartStrategy(dw::StartStrategy strategy) { strategy_ = strategy; }
 
   /** \brief Get the start strategy. */
-  dw::StartStrategy
-  getStartStrategy() const
-  {
-    return strategy_;
-  }
+  dw::StartStrategy getStartStrategy() const { return strategy_; }
 
   /** \brief Set the number of threads (0: all hardware threads). Results do not depend on it.
    * \param[in] nr_threads the number of threads
    */
-  void
-  setNumberOfThreads(unsigned int nr_threads)
-  {
-    nr_threads_ = nr_threads;
-  }
+  void setNumberOfThreads(unsigned int nr_threads) { nr_threads_ = nr_threads; }
 
   /** \brief Get the number of threads (0: all hardware threads). */
-  unsigned int
-  getNumberOfThreads() const
-  {
-    return nr_threads_;
-  }
+  unsigned int getNumberOfThreads() const { return nr_threads_; }
 
   /** \brief Nearest target point of every source point within max_distance.
    * \param[out] correspondences the correspondences, in source order
    * \param[in] max_distance maximum distance between corresponding points
    */
-  void
-  determineCorrespondences(pcl::Correspondences& correspondences,
-                           double max_distance = std::numeric_limits<double>::max()) override;
+  void determineCorrespondences(pcl::Correspondences& correspondences,
+                                double max_distance = std::numeric_limits<double>::max()) override;
 
   /** \brief Correspondences that are nearest neighbours in both directions.
    * \param[out] correspondences the correspondences, in source order
    * \param[in] max_distance maximum distance between corresponding points
    */
-  void
-  determineReciprocalCorrespondences(pcl::Correspondences& correspondences,
-                                     double max_distance = std::numeric_limits<double>::max()) override;
+  void determineReciprocalCorrespondences(pcl::Correspondences& correspondences,
+                                          double max_distance = std::numeric_limits<double>::max()) override;
 
   /** \brief A copy with its own walk search object (sharing the immutable graph) and cache. */
-  typename Base::Ptr
-  clone() const override;
+  typename Base::Ptr clone() const override;
 
   /** \brief Drop the PNN cache (the next call starts every walk afresh). */
-  void
-  invalidateCache()
-  {
+  void invalidateCache() {
     hint_source_ = nullptr;
     hints_.clear();
   }
 
   /** \brief Statistics of every determineCorrespondences() call since the last clearStatistics(). */
-  const std::vector<DelaunayWalkIterationStats>&
-  getStatistics() const
-  {
-    return stats_;
-  }
+  const std::vector<DelaunayWalkIterationStats>& getStatistics() const { return stats_; }
 
   /** \brief Forget the collected statistics. */
-  void
-  clearStatistics()
-  {
-    stats_.clear();
-  }
+  void clearStatistics() { stats_.clear(); }
 
  protected:
   /** \brief Target set-up: share the walk of a KdTreeDelaunayWalk target tree if there is one, and
    * give the walk the target (a no-op when unchanged). Never builds the base's FLANN tree. */
-  bool
-  initComputeWalk();
+  bool initComputeWalk();
 
   /** \brief The forward nearest-neighbour pass shared by both public methods. */
-  void
-  searchAll(double max_distance, bool reciprocal, pcl::Correspondences& correspondences);
+  void searchAll(double max_distance, bool reciprocal, pcl::Correspondences& correspondences);
 
   WalkSearchPtr walk_;
   dw::StartStrategy strategy_ = dw::StartStrategy::PnnOptimized;
@@ -185,8 +147,8 @@ class CorrespondenceEstimationDelaunayWalk
   std::vector<DelaunayWalkIterationStats> stats_;
 };
 
-} // namespace registration
-} // namespace pcl
+}  // namespace registration
+}  // namespace pcl
 
 #ifdef PCL_NO_PRECOMPILE
 #include "pcl_delaunay_walk/registration/impl/correspondence_estimation_delaunay_walk.hpp"

@@ -3,10 +3,10 @@
 /// places PCL searches the target (the correspondence estimator and the Registration's target tree).
 #pragma once
 
+#include <pcl/registration/icp.h>
+
 #include <string>
 #include <vector>
-
-#include <pcl/registration/icp.h>
 
 #include "pcl_delaunay_walk/registration/correspondence_estimation_delaunay_walk.h"
 
@@ -33,7 +33,8 @@ class IterativeClosestPointDelaunayWalk : public IterativeClosestPoint<PointSour
   using Matrix4 = typename Base::Matrix4;
   using WalkSearch = pcl::search::DelaunayWalk<PointTarget>;
   using WalkTree = pcl::search::KdTreeDelaunayWalk<PointTarget>;
-  using WalkEstimation = pcl::registration::CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>;
+  using WalkEstimation =
+      pcl::registration::CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>;
 
   /** \brief Constructor: installs a walk tree and a walk correspondence estimator sharing one graph. */
   IterativeClosestPointDelaunayWalk();
@@ -43,73 +44,44 @@ class IterativeClosestPointDelaunayWalk : public IterativeClosestPoint<PointSour
    * at the next align() (a dw::Error is thrown from align() if it was built from other points).
    * \param[in] graph the target's graph
    */
-  void
-  setTargetGraph(dw::DelaunayGraph::ConstPtr graph);
+  void setTargetGraph(dw::DelaunayGraph::ConstPtr graph);
 
   /** \brief Like setTargetGraph, from a graph file.
    * \param[in] path the graph file (see dw::saveGraph)
    * \throws dw::GraphFileError on a corrupt, truncated or foreign file
    */
-  void
-  loadTargetGraph(const std::string& path);
+  void loadTargetGraph(const std::string& path);
 
   /** \brief The target's current graph (null before the first align()). */
-  dw::DelaunayGraph::ConstPtr
-  getTargetGraph() const
-  {
-    return walk_->getGraph();
-  }
+  dw::DelaunayGraph::ConstPtr getTargetGraph() const { return walk_->getGraph(); }
 
   /** \brief Set the walk start strategy of the correspondence search (default PnnOptimized).
    * \param[in] strategy the start strategy
    */
-  void
-  setStartStrategy(dw::StartStrategy strategy)
-  {
-    estimation_->setStartStrategy(strategy);
-  }
+  void setStartStrategy(dw::StartStrategy strategy) { estimation_->setStartStrategy(strategy); }
 
   /** \brief Set the number of threads of the correspondence search (0: all hardware threads).
    * \param[in] nr_threads the number of threads
    */
-  void
-  setNumberOfThreads(unsigned int nr_threads)
-  {
-    estimation_->setNumberOfThreads(nr_threads);
-  }
+  void setNumberOfThreads(unsigned int nr_threads) { estimation_->setNumberOfThreads(nr_threads); }
 
   /** \brief Per-iteration statistics of the last align() (one entry per correspondence search). */
-  const std::vector<pcl::registration::DelaunayWalkIterationStats>&
-  getIterationStatistics() const
-  {
+  const std::vector<pcl::registration::DelaunayWalkIterationStats>& getIterationStatistics() const {
     return estimation_->getStatistics();
   }
 
   /** \brief Seconds the last align() spent building or adopting the target graph (0 if kept). */
-  double
-  getGraphBuildSeconds() const
-  {
-    return build_seconds_;
-  }
+  double getGraphBuildSeconds() const { return build_seconds_; }
 
   /** \brief The shared walk search over the target. */
-  const typename WalkSearch::Ptr&
-  getSearchMethodWalk() const
-  {
-    return walk_;
-  }
+  const typename WalkSearch::Ptr& getSearchMethodWalk() const { return walk_; }
 
   /** \brief The walk correspondence estimator installed by the constructor. */
-  const typename WalkEstimation::Ptr&
-  getCorrespondenceEstimationWalk() const
-  {
-    return estimation_;
-  }
+  const typename WalkEstimation::Ptr& getCorrespondenceEstimationWalk() const { return estimation_; }
 
  protected:
   /** \brief Prepares the target graph (timed), clears the statistics, then runs stock ICP. */
-  void
-  computeTransformation(PointCloudSource& output, const Matrix4& guess) override;
+  void computeTransformation(PointCloudSource& output, const Matrix4& guess) override;
 
   typename WalkSearch::Ptr walk_;
   typename WalkTree::Ptr walk_tree_;
@@ -117,7 +89,7 @@ class IterativeClosestPointDelaunayWalk : public IterativeClosestPoint<PointSour
   double build_seconds_ = 0.0;
 };
 
-} // namespace pcl
+}  // namespace pcl
 
 #ifdef PCL_NO_PRECOMPILE
 #include "pcl_delaunay_walk/registration/impl/icp_delaunay_walk.hpp"

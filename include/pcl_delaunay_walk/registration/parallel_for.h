@@ -15,9 +15,7 @@ namespace detail {
 
 /// Number of workers for n items: `requested` (0 = hardware threads), but no more than one per
 /// `min_block` items, since starting a thread costs about as much as a few thousand walks.
-inline unsigned
-workerCount(std::size_t n, unsigned requested, std::size_t min_block = 4096)
-{
+inline unsigned workerCount(std::size_t n, unsigned requested, std::size_t min_block = 4096) {
   unsigned t = requested ? requested : std::max(1u, std::thread::hardware_concurrency());
   const std::size_t by_size = std::max<std::size_t>(1, n / std::max<std::size_t>(1, min_block));
   return static_cast<unsigned>(std::min<std::size_t>(t, by_size));
@@ -26,9 +24,7 @@ workerCount(std::size_t n, unsigned requested, std::size_t min_block = 4096)
 /// Calls body(begin, end, worker) for `workers` contiguous blocks of [0, n); rethrows the first
 /// exception of any worker after all have finished.
 template <typename Body>
-void
-parallelFor(std::size_t n, unsigned workers, Body body)
-{
+void parallelFor(std::size_t n, unsigned workers, Body body) {
   if (workers <= 1 || n < 2) {
     body(std::size_t(0), n, 0u);
     return;
@@ -56,6 +52,6 @@ parallelFor(std::size_t n, unsigned workers, Body body)
     if (e) std::rethrow_exception(e);
 }
 
-} // namespace detail
-} // namespace registration
-} // namespace pcl
+}  // namespace detail
+}  // namespace registration
+}  // namespace pcl

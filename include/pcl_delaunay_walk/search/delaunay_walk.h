@@ -4,11 +4,11 @@
 /// 2022), with results identical to pcl::search::KdTree up to exact ties.
 #pragma once
 
-#include <cstdint>
-#include <string>
-
 #include <pcl/point_cloud.h>
 #include <pcl/search/search.h>
+
+#include <cstdint>
+#include <string>
 
 #include "pcl_delaunay_walk/core/graph_builder.h"
 #include "pcl_delaunay_walk/core/start_strategy.h"
@@ -60,8 +60,8 @@ class DelaunayWalk : public Search<PointT> {
    * \param[in] indices optional subset; results are still indices into \a cloud
    * \throws dw::Error on a null cloud, out-of-range indices, or a pending graph that does not match
    */
-  void
-  setInputCloud(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices = IndicesConstPtr()) override;
+  void setInputCloud(const PointCloudConstPtr& cloud,
+                     const IndicesConstPtr& indices = IndicesConstPtr()) override;
 
   /** \brief Set the reference cloud together with a prebuilt graph of it (no build).
    * \param[in] cloud the reference cloud
@@ -69,89 +69,56 @@ class DelaunayWalk : public Search<PointT> {
    * \param[in] indices optional subset
    * \throws dw::Error if the graph is invalid or was built from other points
    */
-  void
-  setInputCloudAndGraph(const PointCloudConstPtr& cloud, dw::DelaunayGraph::ConstPtr graph,
-                        const IndicesConstPtr& indices = IndicesConstPtr());
+  void setInputCloudAndGraph(const PointCloudConstPtr& cloud, dw::DelaunayGraph::ConstPtr graph,
+                             const IndicesConstPtr& indices = IndicesConstPtr());
 
   /** \brief Offer a prebuilt graph for the next setInputCloud(): it is adopted if it matches that
    * cloud and an error is raised if not. For localisation against a fixed map.
    * \param[in] graph the graph (null withdraws a pending one)
    */
-  void
-  setGraph(dw::DelaunayGraph::ConstPtr graph);
+  void setGraph(dw::DelaunayGraph::ConstPtr graph);
 
   /** \brief Load a graph file (see dw::saveGraph) and offer it like setGraph().
    * \param[in] path the graph file
    * \throws dw::GraphFileError on a corrupt, truncated or foreign file
    */
-  void
-  loadGraph(const std::string& path);
+  void loadGraph(const std::string& path);
 
   /** \brief Save the current graph to a file.
    * \param[in] path output file
    * \throws dw::Error when there is no graph yet or on I/O failure
    */
-  void
-  saveGraph(const std::string& path) const;
+  void saveGraph(const std::string& path) const;
 
   /** \brief The current graph (null before setInputCloud). */
-  dw::DelaunayGraph::ConstPtr
-  getGraph() const;
+  dw::DelaunayGraph::ConstPtr getGraph() const;
 
   /** \brief The exact query engine over the current graph (null before setInputCloud). */
-  detail::WalkQuery::ConstPtr
-  getWalkQuery() const
-  {
-    return query_;
-  }
+  detail::WalkQuery::ConstPtr getWalkQuery() const { return query_; }
 
   /** \brief Set where walks start: Zero, KdAnn (default), Pnn or PnnOptimized. With Pnn the hint is
    * the previous query's nearest vertex on the same thread (good for coherent query sequences); the
    * index forms of the queries always start at the query point's own vertex.
    * \param[in] strategy the start strategy
    */
-  void
-  setStartStrategy(dw::StartStrategy strategy)
-  {
-    strategy_ = strategy;
-  }
+  void setStartStrategy(dw::StartStrategy strategy) { strategy_ = strategy; }
 
   /** \brief Get the start strategy. */
-  dw::StartStrategy
-  getStartStrategy() const
-  {
-    return strategy_;
-  }
+  dw::StartStrategy getStartStrategy() const { return strategy_; }
 
   /** \brief Set the options used when a graph has to be built (builder, threads, progress).
    * \param[in] options the build options
    */
-  void
-  setBuildOptions(const dw::BuildOptions& options)
-  {
-    build_options_ = options;
-  }
+  void setBuildOptions(const dw::BuildOptions& options) { build_options_ = options; }
 
   /** \brief Get the build options. */
-  const dw::BuildOptions&
-  getBuildOptions() const
-  {
-    return build_options_;
-  }
+  const dw::BuildOptions& getBuildOptions() const { return build_options_; }
 
   /** \brief Seconds spent building (or adopting) the graph in the last setInputCloud; 0 if reused. */
-  double
-  getLastBuildSeconds() const
-  {
-    return last_build_seconds_;
-  }
+  double getLastBuildSeconds() const { return last_build_seconds_; }
 
   /** \brief Number of graphs built (not reused) by this object so far. */
-  std::size_t
-  getNumberOfBuilds() const
-  {
-    return num_builds_;
-  }
+  std::size_t getNumberOfBuilds() const { return num_builds_; }
 
   /** \brief Search for the k nearest neighbours of a point.
    * \param[in] point the query point
@@ -160,8 +127,8 @@ class DelaunayWalk : public Search<PointT> {
    * \param[out] k_sqr_distances squared distances, ascending
    * \return the number of neighbours found
    */
-  int
-  nearestKSearch(const PointT& point, int k, Indices& k_indices, std::vector<float>& k_sqr_distances) const override;
+  int nearestKSearch(const PointT& point, int k, Indices& k_indices,
+                     std::vector<float>& k_sqr_distances) const override;
 
   /** \brief k nearest neighbours of the point at \a index of the input (of the indices, if given);
    * the walk starts at that point's own vertex.
@@ -171,8 +138,8 @@ class DelaunayWalk : public Search<PointT> {
    * \param[out] k_sqr_distances squared distances
    * \return the number of neighbours found (0 for an out-of-range index)
    */
-  int
-  nearestKSearch(index_t index, int k, Indices& k_indices, std::vector<float>& k_sqr_distances) const override;
+  int nearestKSearch(index_t index, int k, Indices& k_indices,
+                     std::vector<float>& k_sqr_distances) const override;
 
   /** \brief k nearest neighbours of cloud[index].
    * \param[in] cloud the cloud holding the query point
@@ -182,9 +149,8 @@ class DelaunayWalk : public Search<PointT> {
    * \param[out] k_sqr_distances squared distances
    * \return the number of neighbours found
    */
-  int
-  nearestKSearch(const PointCloud& cloud, index_t index, int k, Indices& k_indices,
-                 std::vector<float>& k_sqr_distances) const override;
+  int nearestKSearch(const PointCloud& cloud, index_t index, int k, Indices& k_indices,
+                     std::vector<float>& k_sqr_distances) const override;
 
   /** \brief All neighbours with squared distance < radius^2.
    * \param[in] point the query point
@@ -194,9 +160,8 @@ class DelaunayWalk : public Search<PointT> {
    * \param[in] max_nn if > 0, return only the max_nn nearest
    * \return the number of neighbours found
    */
-  int
-  radiusSearch(const PointT& point, double radius, Indices& k_indices, std::vector<float>& k_sqr_distances,
-               unsigned int max_nn = 0) const override;
+  int radiusSearch(const PointT& point, double radius, Indices& k_indices,
+                   std::vector<float>& k_sqr_distances, unsigned int max_nn = 0) const override;
 
   /** \brief Radius search around the point at \a index (see the index form of nearestKSearch).
    * \param[in] index position in the input cloud, or in the indices when a subset was given
@@ -206,9 +171,8 @@ class DelaunayWalk : public Search<PointT> {
    * \param[in] max_nn if > 0, return only the max_nn nearest
    * \return the number of neighbours found
    */
-  int
-  radiusSearch(index_t index, double radius, Indices& k_indices, std::vector<float>& k_sqr_distances,
-               unsigned int max_nn = 0) const override;
+  int radiusSearch(index_t index, double radius, Indices& k_indices, std::vector<float>& k_sqr_distances,
+                   unsigned int max_nn = 0) const override;
 
   /** \brief Radius search around cloud[index].
    * \param[in] cloud the cloud holding the query point
@@ -219,28 +183,21 @@ class DelaunayWalk : public Search<PointT> {
    * \param[in] max_nn if > 0, return only the max_nn nearest
    * \return the number of neighbours found
    */
-  int
-  radiusSearch(const PointCloud& cloud, index_t index, double radius, Indices& k_indices,
-               std::vector<float>& k_sqr_distances, unsigned int max_nn = 0) const override;
+  int radiusSearch(const PointCloud& cloud, index_t index, double radius, Indices& k_indices,
+                   std::vector<float>& k_sqr_distances, unsigned int max_nn = 0) const override;
 
  protected:
   /** \brief Query with an explicit start vertex hint (kInvalidIndex: per strategy). */
-  int
-  knnFrom(const float q[3], int k, dw::StartStrategy strategy, dw::index_t hint, Indices& k_indices,
-          std::vector<float>& k_sqr_distances) const;
-  int
-  radiusFrom(const float q[3], double radius, unsigned int max_nn, dw::StartStrategy strategy, dw::index_t hint,
-             Indices& k_indices, std::vector<float>& k_sqr_distances) const;
+  int knnFrom(const float q[3], int k, dw::StartStrategy strategy, dw::index_t hint, Indices& k_indices,
+              std::vector<float>& k_sqr_distances) const;
+  int radiusFrom(const float q[3], double radius, unsigned int max_nn, dw::StartStrategy strategy,
+                 dw::index_t hint, Indices& k_indices, std::vector<float>& k_sqr_distances) const;
   /** \brief Graph input of cloud index \a index of the input cloud, or -1. */
-  std::int64_t
-  inputOfCloudIndex(index_t index) const;
+  std::int64_t inputOfCloudIndex(index_t index) const;
   /** \brief Strategy and hint for a point query (the thread's previous answer for Pnn). */
-  dw::index_t
-  sequenceHint() const;
-  void
-  rememberHint(dw::index_t vertex) const;
-  const detail::WalkQuery&
-  query() const;
+  dw::index_t sequenceHint() const;
+  void rememberHint(dw::index_t vertex) const;
+  const detail::WalkQuery& query() const;
 
   detail::WalkQuery::ConstPtr query_;
   dw::DelaunayGraph::ConstPtr pending_graph_;
@@ -251,8 +208,8 @@ class DelaunayWalk : public Search<PointT> {
   std::size_t num_builds_ = 0;
 };
 
-} // namespace search
-} // namespace pcl
+}  // namespace search
+}  // namespace pcl
 
 #ifdef PCL_NO_PRECOMPILE
 #include "pcl_delaunay_walk/search/impl/delaunay_walk.hpp"

@@ -45,27 +45,19 @@ class KdTreeDelaunayWalk : public KdTree<PointT> {
   ~KdTreeDelaunayWalk() override = default;
 
   /** \brief The walk search that answers the queries. */
-  const WalkPtr&
-  getDelaunayWalk() const
-  {
-    return walk_;
-  }
+  const WalkPtr& getDelaunayWalk() const { return walk_; }
 
   /** \brief Set the reference cloud: builds (or keeps) the walk graph; no FLANN index is built.
    * \param[in] cloud the reference cloud
    * \param[in] indices optional subset; results are indices into \a cloud
    */
-  void
-  setInputCloud(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices = IndicesConstPtr()) override;
+  void setInputCloud(const PointCloudConstPtr& cloud,
+                     const IndicesConstPtr& indices = IndicesConstPtr()) override;
 
   /** \brief Set where walks start (see DelaunayWalk::setStartStrategy).
    * \param[in] strategy the start strategy
    */
-  void
-  setStartStrategy(dw::StartStrategy strategy)
-  {
-    walk_->setStartStrategy(strategy);
-  }
+  void setStartStrategy(dw::StartStrategy strategy) { walk_->setStartStrategy(strategy); }
 
   /** \brief k nearest neighbours of a point (see DelaunayWalk).
    * \param[in] point the query point
@@ -74,9 +66,8 @@ class KdTreeDelaunayWalk : public KdTree<PointT> {
    * \param[out] k_sqr_distances squared distances, ascending
    * \return the number of neighbours found
    */
-  int
-  nearestKSearch(const PointT& point, int k, Indices& k_indices, std::vector<float>& k_sqr_distances) const override
-  {
+  int nearestKSearch(const PointT& point, int k, Indices& k_indices,
+                     std::vector<float>& k_sqr_distances) const override {
     return walk_->nearestKSearch(point, k, k_indices, k_sqr_distances);
   }
 
@@ -87,9 +78,8 @@ class KdTreeDelaunayWalk : public KdTree<PointT> {
    * \param[out] k_sqr_distances squared distances
    * \return the number of neighbours found
    */
-  int
-  nearestKSearch(index_t index, int k, Indices& k_indices, std::vector<float>& k_sqr_distances) const override
-  {
+  int nearestKSearch(index_t index, int k, Indices& k_indices,
+                     std::vector<float>& k_sqr_distances) const override {
     return walk_->nearestKSearch(index, k, k_indices, k_sqr_distances);
   }
 
@@ -101,10 +91,8 @@ class KdTreeDelaunayWalk : public KdTree<PointT> {
    * \param[out] k_sqr_distances squared distances
    * \return the number of neighbours found
    */
-  int
-  nearestKSearch(const PointCloud& cloud, index_t index, int k, Indices& k_indices,
-                 std::vector<float>& k_sqr_distances) const override
-  {
+  int nearestKSearch(const PointCloud& cloud, index_t index, int k, Indices& k_indices,
+                     std::vector<float>& k_sqr_distances) const override {
     return walk_->nearestKSearch(cloud, index, k, k_indices, k_sqr_distances);
   }
 
@@ -116,10 +104,8 @@ class KdTreeDelaunayWalk : public KdTree<PointT> {
    * \param[in] max_nn if > 0, only the max_nn nearest
    * \return the number of neighbours found
    */
-  int
-  radiusSearch(const PointT& point, double radius, Indices& k_indices, std::vector<float>& k_sqr_distances,
-               unsigned int max_nn = 0) const override
-  {
+  int radiusSearch(const PointT& point, double radius, Indices& k_indices,
+                   std::vector<float>& k_sqr_distances, unsigned int max_nn = 0) const override {
     return walk_->radiusSearch(point, radius, k_indices, k_sqr_distances, max_nn);
   }
 
@@ -131,10 +117,8 @@ class KdTreeDelaunayWalk : public KdTree<PointT> {
    * \param[in] max_nn if > 0, only the max_nn nearest
    * \return the number of neighbours found
    */
-  int
-  radiusSearch(index_t index, double radius, Indices& k_indices, std::vector<float>& k_sqr_distances,
-               unsigned int max_nn = 0) const override
-  {
+  int radiusSearch(index_t index, double radius, Indices& k_indices, std::vector<float>& k_sqr_distances,
+                   unsigned int max_nn = 0) const override {
     return walk_->radiusSearch(index, radius, k_indices, k_sqr_distances, max_nn);
   }
 
@@ -147,10 +131,8 @@ class KdTreeDelaunayWalk : public KdTree<PointT> {
    * \param[in] max_nn if > 0, only the max_nn nearest
    * \return the number of neighbours found
    */
-  int
-  radiusSearch(const PointCloud& cloud, index_t index, double radius, Indices& k_indices,
-               std::vector<float>& k_sqr_distances, unsigned int max_nn = 0) const override
-  {
+  int radiusSearch(const PointCloud& cloud, index_t index, double radius, Indices& k_indices,
+                   std::vector<float>& k_sqr_distances, unsigned int max_nn = 0) const override {
     return walk_->radiusSearch(cloud, index, radius, k_indices, k_sqr_distances, max_nn);
   }
 
@@ -158,8 +140,8 @@ class KdTreeDelaunayWalk : public KdTree<PointT> {
   WalkPtr walk_;
 };
 
-} // namespace search
-} // namespace pcl
+}  // namespace search
+}  // namespace pcl
 
 #ifdef PCL_NO_PRECOMPILE
 #include "pcl_delaunay_walk/search/impl/kdtree_delaunay_walk.hpp"

@@ -44,7 +44,8 @@ class WalkQuery {
   /// \param[in] graph the walk graph built from exactly these points (same count, same order)
   /// \param[in] xyz caller coordinates of the graph's input points, 3 floats each (NaN allowed)
   /// \param[in] input_to_cloud caller index of each graph input; empty means the identity
-  WalkQuery(dw::DelaunayGraph::ConstPtr graph, std::vector<float> xyz, std::vector<std::int32_t> input_to_cloud);
+  WalkQuery(dw::DelaunayGraph::ConstPtr graph, std::vector<float> xyz,
+            std::vector<std::int32_t> input_to_cloud);
 
   const dw::DelaunayGraph& graph() const { return search_->graph(); }
   const dw::DelaunayGraph::ConstPtr& graphPtr() const { return search_->graphPtr(); }
@@ -78,7 +79,8 @@ class WalkQuery {
   /// Every point with squared distance < float(radius^2) (strict, as FLANN), ascending; at most max_nn
   /// (the nearest ones) unless max_nn is 0. A negative or NaN radius finds nothing.
   std::size_t radius(const float q[3], double radius, std::size_t max_nn, dw::StartStrategy strategy,
-                     dw::index_t hint, std::vector<WalkNeighbour>& out, WalkQueryStats* stats = nullptr) const;
+                     dw::index_t hint, std::vector<WalkNeighbour>& out,
+                     WalkQueryStats* stats = nullptr) const;
 
   /// Upper bound on |local - caller| squared-distance rounding difference at squared distance d2 for a
   /// query whose local coordinates have magnitude up to q_extent.

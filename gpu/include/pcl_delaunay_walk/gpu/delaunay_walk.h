@@ -112,13 +112,13 @@ class DelaunayWalk {
            DeviceArray<std::uint32_t>& indices, DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts,
            cudaStream_t stream = nullptr) const;
 
-  /// \brief Input points within `radius` (dist2 <= radius^2, in double) of each query: the max_nn nearest of them,
-  /// ascending. Output is bounded: n*max_nn slots, counts[i] says how many are valid.
-  /// \param[in] radius search radius (>= 0, finite)
-  /// \param[in] max_nn 1 .. kMaxK
+  /// \brief Input points within `radius` (dist2 <= radius^2, in double) of each query: the max_nn nearest of
+  /// them, ascending. Output is bounded: n*max_nn slots, counts[i] says how many are valid. \param[in] radius
+  /// search radius (>= 0, finite) \param[in] max_nn 1 .. kMaxK
   void radius(const DeviceArray<float4>& queries, float radius, unsigned max_nn,
               const DeviceArray<std::uint32_t>* hints, DeviceArray<std::uint32_t>& indices,
-              DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts, cudaStream_t stream = nullptr) const;
+              DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts,
+              cudaStream_t stream = nullptr) const;
 
   /// \brief Exact nearest vertex by brute force (every query against every vertex, shared-memory tiles).
   /// The reference the walk is tested and measured against. Ties go to the smaller vertex index.
@@ -129,9 +129,9 @@ class DelaunayWalk {
   void verticesToInputs(std::uint32_t* vertices, std::size_t n, cudaStream_t stream = nullptr) const;
 
  private:
-  void expand(const DeviceArray<float4>& queries, unsigned k, double radius2, const DeviceArray<std::uint32_t>* hints,
-              DeviceArray<std::uint32_t>& indices, DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts,
-              cudaStream_t stream) const;
+  void expand(const DeviceArray<float4>& queries, unsigned k, double radius2,
+              const DeviceArray<std::uint32_t>* hints, DeviceArray<std::uint32_t>& indices,
+              DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts, cudaStream_t stream) const;
   void buildStartGrid(const dw::DelaunayGraph& graph, double cells_per_vertex);
 
   DeviceArray<float4> points_;

@@ -31,7 +31,9 @@ namespace gpu {
 
 /// Row-major 4x4 rigid transform (double), world frame: target ~ T * source.
 using Matrix4d = std::array<double, 16>;
-inline Matrix4d identityMatrix4d() { return {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}; }
+inline Matrix4d identityMatrix4d() {
+  return {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+}
 
 /// Mirrors pcl::registration::DefaultConvergenceCriteria::ConvergenceState.
 enum class ConvergenceState : int {
@@ -47,12 +49,12 @@ const char* toString(ConvergenceState s);
 
 /// ICP settings, with PCL 1.13's defaults and meanings.
 struct IcpParameters {
-  int max_iterations = 10;                   ///< Registration::setMaximumIterations
-  double transformation_epsilon = 0.0;       ///< compared with the step's squared translation (as PCL does)
+  int max_iterations = 10;              ///< Registration::setMaximumIterations
+  double transformation_epsilon = 0.0;  ///< compared with the step's squared translation (as PCL does)
   double transformation_rotation_epsilon = 0.0;  ///< cos threshold; 0: 1 - transformation_epsilon
   double euclidean_fitness_epsilon = -std::numeric_limits<double>::max();  ///< relative MSE change
   double max_correspondence_distance = std::sqrt(std::numeric_limits<double>::max());
-  double mse_threshold_absolute = 1e-12;     ///< DefaultConvergenceCriteria's absolute MSE threshold
+  double mse_threshold_absolute = 1e-12;  ///< DefaultConvergenceCriteria's absolute MSE threshold
   int max_iterations_similar_transforms = 0;
   bool failure_after_max_iterations = false;
   unsigned min_number_correspondences = 3;
@@ -63,9 +65,9 @@ struct IcpResult {
   Matrix4d transformation = identityMatrix4d();  ///< final_transformation_ (guess included)
   int iterations = 0;                            ///< nr_iterations_
   ConvergenceState state = ConvergenceState::NotConverged;
-  bool converged = false;                        ///< hasConverged() as PCL reports it
-  double mse = 0.0;                              ///< mean squared correspondence distance, last iteration
-  std::uint32_t correspondences = 0;             ///< correspondences of the last iteration
+  bool converged = false;             ///< hasConverged() as PCL reports it
+  double mse = 0.0;                   ///< mean squared correspondence distance, last iteration
+  std::uint32_t correspondences = 0;  ///< correspondences of the last iteration
 };
 
 class IterativeClosestPoint {
@@ -116,15 +118,15 @@ class IterativeClosestPoint {
   DeviceArray<std::uint32_t> block_source_;
   DeviceArray<std::uint32_t> source_meta_;  ///< per source: begin, size, first block, #blocks
   DeviceArray<double> partials_;
-  DeviceArray<unsigned char> states_;      ///< per-source solver state (see the .cu)
+  DeviceArray<unsigned char> states_;  ///< per-source solver state (see the .cu)
   std::uint32_t num_blocks_ = 0;
   cudaStream_t stream_ = nullptr;
   std::array<cudaEvent_t, 3> events_{};  ///< ring: limits how many iterations are queued ahead
-  unsigned* done_host_ = nullptr;          ///< mapped pinned: how many sources are done
-  unsigned* done_host_dev_ = nullptr;      ///< its device address
+  unsigned* done_host_ = nullptr;        ///< mapped pinned: how many sources are done
+  unsigned* done_host_dev_ = nullptr;    ///< its device address
   DeviceArray<unsigned> done_count_;
-  DeviceArray<unsigned> tickets_;          ///< per source: blocks finished this iteration
-  DeviceArray<double> sums_;               ///< per source: the 17 sums of this iteration
+  DeviceArray<unsigned> tickets_;  ///< per source: blocks finished this iteration
+  DeviceArray<double> sums_;       ///< per source: the 17 sums of this iteration
 };
 
 }  // namespace gpu

@@ -2,10 +2,10 @@
 /// \brief Template definitions of pcl::registration::CorrespondenceEstimationDelaunayWalk.
 #pragma once
 
+#include <pcl/common/copy_point.h>
+
 #include <chrono>
 #include <cmath>
-
-#include <pcl/common/copy_point.h>
 
 #include "pcl_delaunay_walk/registration/correspondence_estimation_delaunay_walk.h"
 #include "pcl_delaunay_walk/registration/parallel_for.h"
@@ -15,24 +15,21 @@ namespace registration {
 
 template <typename PointSource, typename PointTarget, typename Scalar>
 CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::CorrespondenceEstimationDelaunayWalk()
-: walk_(new WalkSearch)
-{
+    : walk_(new WalkSearch) {
   corr_name_ = "CorrespondenceEstimationDelaunayWalk";
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
 CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::CorrespondenceEstimationDelaunayWalk(
     const WalkSearchPtr& walk)
-: walk_(walk)
-{
+    : walk_(walk) {
   if (!walk_) throw dw::Error("CorrespondenceEstimationDelaunayWalk: null walk search");
   corr_name_ = "CorrespondenceEstimationDelaunayWalk";
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
-void
-CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::setSearchMethodWalk(const WalkSearchPtr& walk)
-{
+void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::setSearchMethodWalk(
+    const WalkSearchPtr& walk) {
   if (!walk) throw dw::Error("CorrespondenceEstimationDelaunayWalk::setSearchMethodWalk: null walk search");
   walk_ = walk;
   target_cloud_updated_ = true;
@@ -40,9 +37,7 @@ CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::setSearc
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
-bool
-CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::initComputeWalk()
-{
+bool CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::initComputeWalk() {
   if (!target_) {
     PCL_ERROR("[pcl::registration::%s::compute] No input target dataset was given!\n", corr_name_.c_str());
     return false;
@@ -64,11 +59,8 @@ CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::initComp
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
-void
-CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::searchAll(double max_distance,
-                                                                                 bool reciprocal,
-                                                                                 pcl::Correspondences& correspondences)
-{
+void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::searchAll(
+    double max_distance, bool reciprocal, pcl::Correspondences& correspondences) {
   const auto t0 = std::chrono::steady_clock::now();
   const pcl::search::detail::WalkQuery& wq = *walk_->getWalkQuery();
   const std::size_t n = indices_->size();
@@ -138,20 +130,16 @@ CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::searchAl
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
-void
-CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::determineCorrespondences(
-    pcl::Correspondences& correspondences, double max_distance)
-{
+void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::determineCorrespondences(
+    pcl::Correspondences& correspondences, double max_distance) {
   if (!initComputeWalk()) return;
   searchAll(max_distance, false, correspondences);
   this->deinitCompute();
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
-void
-CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::determineReciprocalCorrespondences(
-    pcl::Correspondences& correspondences, double max_distance)
-{
+void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::
+    determineReciprocalCorrespondences(pcl::Correspondences& correspondences, double max_distance) {
   if (!initComputeWalk()) return;
   // The backward search runs over the moving source, rebuilt every iteration: a k-d tree build is
   // ~50x cheaper than a Delaunay graph there, so it stays PCL's KdTree, as in the stock estimator.
@@ -162,13 +150,12 @@ CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::determin
 
 template <typename PointSource, typename PointTarget, typename Scalar>
 typename CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::Base::Ptr
-CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::clone() const
-{
+CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::clone() const {
   Ptr copy(new CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>(*this));
   // A separate walk object (same immutable graph), so re-targeting the copy leaves this one alone.
   copy->walk_.reset(new WalkSearch(*walk_));
   return copy;
 }
 
-} // namespace registration
-} // namespace pcl
+}  // namespace registration
+}  // namespace pcl

@@ -16,10 +16,8 @@ namespace detail {
 
 /// The caller's xyz of the cloud (or of its subset, in subset order) and the subset's cloud indices.
 template <typename PointT>
-void
-gatherXyz(const pcl::PointCloud<PointT>& cloud, const pcl::Indices* indices, std::vector<float>& xyz,
-          std::vector<std::int32_t>& input_to_cloud)
-{
+void gatherXyz(const pcl::PointCloud<PointT>& cloud, const pcl::Indices* indices, std::vector<float>& xyz,
+               std::vector<std::int32_t>& input_to_cloud) {
   static_assert(sizeof(pcl::index_t) <= sizeof(std::int32_t) || std::is_signed<pcl::index_t>::value,
                 "pcl_delaunay_walk supports PCL's default 32-bit index_t");
   const std::size_t n = indices ? indices->size() : cloud.size();
@@ -47,23 +45,19 @@ gatherXyz(const pcl::PointCloud<PointT>& cloud, const pcl::Indices* indices, std
 }
 
 /// Bitwise equality (NaN-safe): the graph is reused only for exactly the same coordinates.
-inline bool
-sameContent(const WalkQuery& q, const std::vector<float>& xyz, const std::vector<std::int32_t>& input_to_cloud)
-{
+inline bool sameContent(const WalkQuery& q, const std::vector<float>& xyz,
+                        const std::vector<std::int32_t>& input_to_cloud) {
   return q.inputXyz().size() == xyz.size() && q.inputToCloud() == input_to_cloud &&
          (xyz.empty() || std::memcmp(q.inputXyz().data(), xyz.data(), xyz.size() * sizeof(float)) == 0);
 }
 
-} // namespace detail
+}  // namespace detail
 
 template <typename PointT>
-DelaunayWalk<PointT>::DelaunayWalk(bool sorted) : Search<PointT>("DelaunayWalk", sorted)
-{}
+DelaunayWalk<PointT>::DelaunayWalk(bool sorted) : Search<PointT>("DelaunayWalk", sorted) {}
 
 template <typename PointT>
-void
-DelaunayWalk<PointT>::setInputCloud(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices)
-{
+void DelaunayWalk<PointT>::setInputCloud(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices) {
   if (!cloud) throw dw::Error("pcl::search::DelaunayWalk::setInputCloud: null cloud");
   std::vector<float> xyz;
   std::vector<std::int32_t> map;
@@ -99,10 +93,9 @@ DelaunayWalk<PointT>::setInputCloud(const PointCloudConstPtr& cloud, const Indic
 }
 
 template <typename PointT>
-void
-DelaunayWalk<PointT>::setInputCloudAndGraph(const PointCloudConstPtr& cloud, dw::DelaunayGraph::ConstPtr graph,
-                                            const IndicesConstPtr& indices)
-{
+void DelaunayWalk<PointT>::setInputCloudAndGraph(const PointCloudConstPtr& cloud,
+                                                 dw::DelaunayGraph::ConstPtr graph,
+                                                 const IndicesConstPtr& indices) {
   if (!graph) throw dw::Error("pcl::search::DelaunayWalk::setInputCloudAndGraph: null graph");
   graph->validate();
   const auto saved = pending_graph_;
@@ -116,38 +109,28 @@ DelaunayWalk<PointT>::setInputCloudAndGraph(const PointCloudConstPtr& cloud, dw:
 }
 
 template <typename PointT>
-void
-DelaunayWalk<PointT>::setGraph(dw::DelaunayGraph::ConstPtr graph)
-{
+void DelaunayWalk<PointT>::setGraph(dw::DelaunayGraph::ConstPtr graph) {
   if (graph) graph->validate();
   pending_graph_ = std::move(graph);
 }
 
 template <typename PointT>
-void
-DelaunayWalk<PointT>::loadGraph(const std::string& path)
-{
+void DelaunayWalk<PointT>::loadGraph(const std::string& path) {
   pending_graph_ = std::make_shared<const dw::DelaunayGraph>(dw::loadGraph(path));
 }
 
 template <typename PointT>
-void
-DelaunayWalk<PointT>::saveGraph(const std::string& path) const
-{
+void DelaunayWalk<PointT>::saveGraph(const std::string& path) const {
   dw::saveGraph(query().graph(), path);
 }
 
 template <typename PointT>
-dw::DelaunayGraph::ConstPtr
-DelaunayWalk<PointT>::getGraph() const
-{
+dw::DelaunayGraph::ConstPtr DelaunayWalk<PointT>::getGraph() const {
   return query_ ? query_->graphPtr() : dw::DelaunayGraph::ConstPtr();
 }
 
 template <typename PointT>
-const detail::WalkQuery&
-DelaunayWalk<PointT>::query() const
-{
+const detail::WalkQuery& DelaunayWalk<PointT>::query() const {
   if (!query_) throw dw::Error("pcl::search::DelaunayWalk: no input cloud (call setInputCloud first)");
   return *query_;
 }
@@ -157,17 +140,14 @@ namespace detail {
 struct SequenceHint {
   std::uint64_t query_id = 0;
   dw::index_t vertex = dw::kInvalidIndex;
-  static SequenceHint&
-  get()
-  {
+  static SequenceHint& get() {
     thread_local SequenceHint h;
     return h;
   }
 };
 
-inline void
-toPcl(const std::vector<WalkNeighbour>& r, Indices& k_indices, std::vector<float>& k_sqr_distances)
-{
+inline void toPcl(const std::vector<WalkNeighbour>& r, Indices& k_indices,
+                  std::vector<float>& k_sqr_distances) {
   k_indices.resize(r.size());
   k_sqr_distances.resize(r.size());
   for (std::size_t i = 0; i < r.size(); ++i) {
@@ -176,18 +156,14 @@ toPcl(const std::vector<WalkNeighbour>& r, Indices& k_indices, std::vector<float
   }
 }
 
-inline std::vector<WalkNeighbour>&
-resultScratch()
-{
+inline std::vector<WalkNeighbour>& resultScratch() {
   thread_local std::vector<WalkNeighbour> r;
   return r;
 }
-} // namespace detail
+}  // namespace detail
 
 template <typename PointT>
-dw::index_t
-DelaunayWalk<PointT>::sequenceHint() const
-{
+dw::index_t DelaunayWalk<PointT>::sequenceHint() const {
   if (strategy_ != dw::StartStrategy::Pnn && strategy_ != dw::StartStrategy::PnnOptimized)
     return dw::kInvalidIndex;
   const auto& h = detail::SequenceHint::get();
@@ -195,9 +171,7 @@ DelaunayWalk<PointT>::sequenceHint() const
 }
 
 template <typename PointT>
-void
-DelaunayWalk<PointT>::rememberHint(dw::index_t vertex) const
-{
+void DelaunayWalk<PointT>::rememberHint(dw::index_t vertex) const {
   if (strategy_ != dw::StartStrategy::Pnn && strategy_ != dw::StartStrategy::PnnOptimized) return;
   auto& h = detail::SequenceHint::get();
   h.query_id = query_->id();
@@ -205,10 +179,8 @@ DelaunayWalk<PointT>::rememberHint(dw::index_t vertex) const
 }
 
 template <typename PointT>
-int
-DelaunayWalk<PointT>::knnFrom(const float q[3], int k, dw::StartStrategy strategy, dw::index_t hint,
-                              Indices& k_indices, std::vector<float>& k_sqr_distances) const
-{
+int DelaunayWalk<PointT>::knnFrom(const float q[3], int k, dw::StartStrategy strategy, dw::index_t hint,
+                                  Indices& k_indices, std::vector<float>& k_sqr_distances) const {
   const detail::WalkQuery& wq = query();
   auto& r = detail::resultScratch();
   detail::WalkQueryStats stats;
@@ -222,10 +194,9 @@ DelaunayWalk<PointT>::knnFrom(const float q[3], int k, dw::StartStrategy strateg
 }
 
 template <typename PointT>
-int
-DelaunayWalk<PointT>::radiusFrom(const float q[3], double radius, unsigned int max_nn, dw::StartStrategy strategy,
-                                 dw::index_t hint, Indices& k_indices, std::vector<float>& k_sqr_distances) const
-{
+int DelaunayWalk<PointT>::radiusFrom(const float q[3], double radius, unsigned int max_nn,
+                                     dw::StartStrategy strategy, dw::index_t hint, Indices& k_indices,
+                                     std::vector<float>& k_sqr_distances) const {
   const detail::WalkQuery& wq = query();
   auto& r = detail::resultScratch();
   detail::WalkQueryStats stats;
@@ -236,29 +207,23 @@ DelaunayWalk<PointT>::radiusFrom(const float q[3], double radius, unsigned int m
 }
 
 template <typename PointT>
-int
-DelaunayWalk<PointT>::nearestKSearch(const PointT& point, int k, Indices& k_indices,
-                                     std::vector<float>& k_sqr_distances) const
-{
+int DelaunayWalk<PointT>::nearestKSearch(const PointT& point, int k, Indices& k_indices,
+                                         std::vector<float>& k_sqr_distances) const {
   const float q[3] = {point.x, point.y, point.z};
   query();  // a clear error before any hint lookup
   return knnFrom(q, k, strategy_, sequenceHint(), k_indices, k_sqr_distances);
 }
 
 template <typename PointT>
-std::int64_t
-DelaunayWalk<PointT>::inputOfCloudIndex(index_t index) const
-{
+std::int64_t DelaunayWalk<PointT>::inputOfCloudIndex(index_t index) const {
   if (index < 0) return -1;
   if (!indices_) return static_cast<std::size_t>(index) < query().numInputs() ? index : -1;
   return static_cast<std::size_t>(index) < cloud_to_input_.size() ? cloud_to_input_[index] : -1;
 }
 
 template <typename PointT>
-int
-DelaunayWalk<PointT>::nearestKSearch(index_t index, int k, Indices& k_indices,
-                                     std::vector<float>& k_sqr_distances) const
-{
+int DelaunayWalk<PointT>::nearestKSearch(index_t index, int k, Indices& k_indices,
+                                         std::vector<float>& k_sqr_distances) const {
   const detail::WalkQuery& wq = query();
   if (index < 0 || static_cast<std::size_t>(index) >= wq.numInputs()) {
     k_indices.clear();
@@ -272,10 +237,8 @@ DelaunayWalk<PointT>::nearestKSearch(index_t index, int k, Indices& k_indices,
 }
 
 template <typename PointT>
-int
-DelaunayWalk<PointT>::nearestKSearch(const PointCloud& cloud, index_t index, int k, Indices& k_indices,
-                                     std::vector<float>& k_sqr_distances) const
-{
+int DelaunayWalk<PointT>::nearestKSearch(const PointCloud& cloud, index_t index, int k, Indices& k_indices,
+                                         std::vector<float>& k_sqr_distances) const {
   if (index < 0 || static_cast<std::size_t>(index) >= cloud.size()) {
     k_indices.clear();
     k_sqr_distances.clear();
@@ -289,20 +252,16 @@ DelaunayWalk<PointT>::nearestKSearch(const PointCloud& cloud, index_t index, int
 }
 
 template <typename PointT>
-int
-DelaunayWalk<PointT>::radiusSearch(const PointT& point, double radius, Indices& k_indices,
-                                   std::vector<float>& k_sqr_distances, unsigned int max_nn) const
-{
+int DelaunayWalk<PointT>::radiusSearch(const PointT& point, double radius, Indices& k_indices,
+                                       std::vector<float>& k_sqr_distances, unsigned int max_nn) const {
   const float q[3] = {point.x, point.y, point.z};
   query();
   return radiusFrom(q, radius, max_nn, strategy_, sequenceHint(), k_indices, k_sqr_distances);
 }
 
 template <typename PointT>
-int
-DelaunayWalk<PointT>::radiusSearch(index_t index, double radius, Indices& k_indices,
-                                   std::vector<float>& k_sqr_distances, unsigned int max_nn) const
-{
+int DelaunayWalk<PointT>::radiusSearch(index_t index, double radius, Indices& k_indices,
+                                       std::vector<float>& k_sqr_distances, unsigned int max_nn) const {
   const detail::WalkQuery& wq = query();
   if (index < 0 || static_cast<std::size_t>(index) >= wq.numInputs()) {
     k_indices.clear();
@@ -310,15 +269,14 @@ DelaunayWalk<PointT>::radiusSearch(index_t index, double radius, Indices& k_indi
     return 0;
   }
   const std::size_t input = static_cast<std::size_t>(index);
-  return radiusFrom(&wq.inputXyz()[3 * input], radius, max_nn, dw::StartStrategy::Pnn, wq.vertexOfInput(input),
-                    k_indices, k_sqr_distances);
+  return radiusFrom(&wq.inputXyz()[3 * input], radius, max_nn, dw::StartStrategy::Pnn,
+                    wq.vertexOfInput(input), k_indices, k_sqr_distances);
 }
 
 template <typename PointT>
-int
-DelaunayWalk<PointT>::radiusSearch(const PointCloud& cloud, index_t index, double radius, Indices& k_indices,
-                                   std::vector<float>& k_sqr_distances, unsigned int max_nn) const
-{
+int DelaunayWalk<PointT>::radiusSearch(const PointCloud& cloud, index_t index, double radius,
+                                       Indices& k_indices, std::vector<float>& k_sqr_distances,
+                                       unsigned int max_nn) const {
   if (index < 0 || static_cast<std::size_t>(index) >= cloud.size()) {
     k_indices.clear();
     k_sqr_distances.clear();
@@ -326,12 +284,13 @@ DelaunayWalk<PointT>::radiusSearch(const PointCloud& cloud, index_t index, doubl
   }
   if (&cloud == input_.get()) {
     const std::int64_t input = inputOfCloudIndex(index);
-    if (input >= 0) return radiusSearch(static_cast<index_t>(input), radius, k_indices, k_sqr_distances, max_nn);
+    if (input >= 0)
+      return radiusSearch(static_cast<index_t>(input), radius, k_indices, k_sqr_distances, max_nn);
   }
   return radiusSearch(cloud[index], radius, k_indices, k_sqr_distances, max_nn);
 }
 
-} // namespace search
-} // namespace pcl
+}  // namespace search
+}  // namespace pcl
 
 #define PCL_INSTANTIATE_DelaunayWalk(T) template class pcl::search::DelaunayWalk<T>;
