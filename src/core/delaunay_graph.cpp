@@ -29,6 +29,16 @@ void DelaunayGraph::validate() const {
     if (!(e.m >= 0.f) || !std::isfinite(e.ex) || !std::isfinite(e.ey) || !std::isfinite(e.ez))
       broken("non-finite edge record");
   }
+  if (!safe_radius2.empty()) {
+    if (safe_radius2.size() != n) broken("safe radii size");
+    for (std::size_t v = 0; v < n; ++v) {
+      float r = INFINITY;
+      for (index_t e = offsets[v]; e < offsets[v + 1]; ++e) r = std::min(r, edges[e].m);
+      // A radius larger than half the nearest-neighbour distance would stop walks at the wrong vertex.
+      if (!(safe_radius2[v] >= 0.f) || (safe_radius2[v] > 0.f && !(double(safe_radius2[v]) < double(r) * r)))
+        broken("safe radius too large at vertex " + std::to_string(v));
+    }
+  }
   if (originals_offsets.size() != n + 1 || originals_offsets.front() != 0 ||
       originals_offsets.back() != originals.size())
     broken("originals offsets");
@@ -53,7 +63,7 @@ void DelaunayGraph::validate() const {
 std::size_t DelaunayGraph::memoryBytes() const {
   return points.size() * sizeof(Vec3f) + offsets.size() * sizeof(index_t) +
          edges.size() * sizeof(EdgeRecord) + input_to_vertex.size() * sizeof(index_t) +
-         originals_offsets.size() * sizeof(index_t) + originals.size() * sizeof(index_t);
+         originals_offsets.size() * sizeof(index_t) + originals.size() * sizeof(index_t) + safe_radius2.size() * sizeof(float);
 }
 
 void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> undirected) {
@@ -94,6 +104,19 @@ void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> un
   for (std::size_t v = 0; v < n; ++v)
     std::sort(g.edges.begin() + g.offsets[v], g.edges.begin() + g.offsets[v + 1],
               [](const EdgeRecord& a, const EdgeRecord& b) { return a.j < b.j; });
+  computeSafeRadii(g);
+}
+
+void computeSafeRadii(DelaunayGraph& g) {
+  const std::size_t n = g.points.size();
+  g.safe_radius2.assign(n, 0.f);
+  for (std::size_t v = 0; v < n; ++v) {
+    float r = INFINITY;
+    for (index_t e = g.offsets[v]; e < g.offsets[v + 1]; ++e) r = std::min(r, g.edges[e].m);
+    if (!std::isfinite(r)) continue;  // isolated vertex (a one-point graph): no bound, keep 0
+    const double r2 = double(r) * double(r) * (1.0 - 1e-5);
+    if (r2 >= 1e-30) g.safe_radius2[v] = static_cast<float>(r2);
+  }
 }
 
 }  // namespace dw

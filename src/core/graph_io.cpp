@@ -159,6 +159,7 @@ DelaunayGraph deserializeGraph(const std::uint8_t* data, std::size_t size) {
   } catch (const Error& e) {
     fail(e.what());
   }
+  computeSafeRadii(g);  // derived data: recomputed (O(E)) rather than trusted from the file
   return g;
 }
 

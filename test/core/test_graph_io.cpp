@@ -23,12 +23,15 @@ void expectEqual(const DelaunayGraph& a, const DelaunayGraph& b) {
   EXPECT_EQ(a.origin, b.origin);
   EXPECT_EQ(a.dimension, b.dimension);
   ASSERT_EQ(a.points.size(), b.points.size());
-  if (!a.points.empty())  // memcmp of null pointers is undefined even for 0 bytes
+  if (!a.points.empty()) {  // memcmp of null pointers is undefined even for 0 bytes
     EXPECT_EQ(0, std::memcmp(a.points.data(), b.points.data(), a.points.size() * sizeof(Vec3f)));
+  }
   EXPECT_EQ(a.offsets, b.offsets);
   ASSERT_EQ(a.edges.size(), b.edges.size());
-  if (!a.edges.empty())
+  if (!a.edges.empty()) {
     EXPECT_EQ(0, std::memcmp(a.edges.data(), b.edges.data(), a.edges.size() * sizeof(EdgeRecord)));
+  }
+  EXPECT_EQ(a.safe_radius2, b.safe_radius2);  // derived on load: must equal the built graph's
   EXPECT_EQ(a.input_to_vertex, b.input_to_vertex);
   EXPECT_EQ(a.originals_offsets, b.originals_offsets);
   EXPECT_EQ(a.originals, b.originals);

@@ -18,7 +18,9 @@ namespace dw {
 ///  - the neighbours of v are edges[offsets[v] .. offsets[v+1]), each edge stored in both directions;
 ///  - input_to_vertex[i] is the vertex of input point i, or kInvalidIndex for a skipped (NaN/Inf) one;
 ///  - originals[originals_offsets[v] .. originals_offsets[v+1]) are the input indices that collapsed
-///    onto vertex v (duplicates), ascending; the first is v's representative.
+///    onto vertex v (duplicates), ascending; the first is v's representative;
+///  - safe_radius2[v] (empty or one per vertex) is the squared radius of a ball around points[v] that
+///    lies inside v's Voronoi cell (see computeSafeRadii()).
 /// An edge set that contains every Delaunay edge makes the walk exact; extra edges cost only speed.
 struct DelaunayGraph {
   using Ptr = std::shared_ptr<DelaunayGraph>;
@@ -33,6 +35,10 @@ struct DelaunayGraph {
   std::vector<index_t> input_to_vertex;
   std::vector<index_t> originals_offsets{0};
   std::vector<index_t> originals;
+  /// Per vertex: a query q with |q - x_v|^2 <= safe_radius2[v] has x_v as its exact nearest neighbour,
+  /// so the walk stops there without scanning v's edges (the common case late in ICP). Derived data:
+  /// filled by assembleEdges() and on load, never saved. Empty disables the test.
+  std::vector<float> safe_radius2;
 
   std::size_t numVertices() const { return points.size(); }
   std::size_t numDirectedEdges() const { return edges.size(); }
@@ -55,6 +61,15 @@ struct DelaunayGraph {
 
 /// Builds the CSR records from an undirected edge list over `points` (pairs i != j, any order,
 /// duplicates allowed). Used by every builder so that the layout is defined in one place.
+/// Fills safe_radius2 too.
 void assembleEdges(DelaunayGraph& graph, std::vector<std::pair<index_t, index_t>> undirected_edges);
+
+/// Fills graph.safe_radius2 from the edges. The nearest other vertex of v is always a Delaunay neighbour
+/// (the nearest-neighbour graph is a subgraph of the Delaunay graph), at distance 2 r_v with
+/// r_v = min_j m_vj; any q with |q - x_v| < r_v is then strictly nearer to x_v than to every x_j, since
+/// |q - x_j| >= 2 r_v - |q - x_v| > |q - x_v|. The stored value is r_v^2 shrunk by 1e-5 (relative), far
+/// more than the float rounding of m and of the walk's distance; balls too small to hold in float
+/// precision (r^2 < 1e-30) are disabled (0). O(E).
+void computeSafeRadii(DelaunayGraph& graph);
 
 }  // namespace dw

@@ -53,6 +53,7 @@ class NeighbourSearch {
     const DelaunayGraph& g = *graph_;
     if (v >= g.points.size()) return;
     __builtin_prefetch(&g.points[v]);
+    if (!g.safe_radius2.empty()) __builtin_prefetch(&g.safe_radius2[v]);
     const EdgeRecord* e = g.edges.data() + g.offsets[v];
     __builtin_prefetch(e);
     __builtin_prefetch(reinterpret_cast<const char*>(e) + 64);

@@ -7,6 +7,7 @@
 #include <cstdint>
 
 #include "pcl_delaunay_walk/core/delaunay_graph.h"
+#include "pcl_delaunay_walk/core/edge_scan.h"
 
 namespace dw {
 
@@ -30,28 +31,27 @@ inline double squaredDistanceD(const Vec3f& a, const Vec3f& b) {
 /// rounding error (< 1e-6 (|u| + m), from u, the rounded unit vector and m): edges that close to their
 /// threshold are re-decided by comparing distances in double, which also catches queries far from the
 /// data, where float squared distances of different vertices round to the same value. A move is taken
-/// only if it strictly lowers the double distance, so the walk always terminates.
+/// only if it strictly lowers the double distance, so the walk always terminates. Before scanning, a
+/// query inside the vertex's safe ball (DelaunayGraph::safe_radius2) ends the walk at once: near
+/// convergence most ICP queries lie next to their previous nearest vertex.
 inline WalkResult walk(const DelaunayGraph& g, const Vec3f& q, index_t start) {
   WalkResult r;
   if (g.points.empty()) return r;
   index_t i = start < g.points.size() ? start : 0;
   Vec3f u = q - g.points[i];
   double d2 = squaredDistanceD(q, g.points[i]);
+  const float* const safe = g.safe_radius2.empty() ? nullptr : g.safe_radius2.data();
   for (;;) {
+    if (safe && d2 <= safe[i]) break;
     const EdgeRecord* const first = g.edges.data() + g.offsets[i];
     const EdgeRecord* const end = g.edges.data() + g.offsets[i + 1];
-    float best_gain = 0.f;
-    float max_margin = -INFINITY;  // largest c - m: how near the closest edge came to a move
-    index_t best = kInvalidIndex;
-    for (const EdgeRecord* e = first; e != end; ++e) {
-      // c - m > 0  <=>  q is closer to x_j; the largest c moves furthest along the descent.
-      const float c = u.x * e->ex + u.y * e->ey + u.z * e->ez;
-      const float margin = c - e->m;
-      if (margin > 0.f && c > best_gain) best_gain = c, best = e->j;
-      max_margin = std::max(max_margin, margin);
-    }
     // An edge within rounding of its threshold (c ~ m <= |u|, error < 1e-6 (|u| + m)) is undecided.
-    bool uncertain = max_margin > -2e-6f * std::sqrt(float(d2)) - 1e-30f;
+    const float tolerance = 2e-6f * std::sqrt(float(d2)) + 1e-30f;
+    // c - m > 0  <=>  q is closer to x_j; the largest c moves furthest along the descent.
+    const EdgeScan scan = scanEdges(first, end, u);
+    const index_t best = scan.best;
+    const float max_margin = scan.max_margin;  // how near the closest edge came to a move
+    bool uncertain = max_margin > -tolerance;
     index_t next = kInvalidIndex;
     double next_d2 = d2;
     if (best != kInvalidIndex) {
