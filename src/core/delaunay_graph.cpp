@@ -29,6 +29,10 @@ void DelaunayGraph::validate() const {
     if (!(e.m >= 0.f) || !std::isfinite(e.ex) || !std::isfinite(e.ey) || !std::isfinite(e.ez))
       broken("non-finite edge record");
   }
+  for (std::size_t v = 0; v < n; ++v)
+    for (index_t e = offsets[v]; e + 1 < offsets[v + 1]; ++e)
+      if (!(edges[e].m <= edges[e + 1].m))  // the walk's early stop relies on this order
+        broken("edges of vertex " + std::to_string(v) + " not sorted by length");
   if (!safe_radius2.empty()) {
     if (safe_radius2.size() != n) broken("safe radii size");
     for (std::size_t v = 0; v < n; ++v) {
@@ -100,11 +104,29 @@ void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> un
     put(e.first, e.second);
     put(e.second, e.first);
   }
-  // Neighbours in ascending order: deterministic files and slightly better locality.
-  for (std::size_t v = 0; v < n; ++v)
-    std::sort(g.edges.begin() + g.offsets[v], g.edges.begin() + g.offsets[v + 1],
-              [](const EdgeRecord& a, const EdgeRecord& b) { return a.j < b.j; });
+  sortNeighbourhoods(g);
   computeSafeRadii(g);
+}
+
+namespace {
+// Shortest edge first (the walk stops reading a neighbourhood at the first edge longer than 2|u|);
+// ties by neighbour id, so files are deterministic.
+bool shorterEdge(const EdgeRecord& a, const EdgeRecord& b) {
+  return a.m < b.m || (a.m == b.m && a.j < b.j);
+}
+}  // namespace
+
+void sortNeighbourhoods(DelaunayGraph& g) {
+  // Runs on loaded data before validate(): leave anything malformed (bad offsets, NaN lengths, which
+  // would break std::sort's ordering contract) untouched for validate() to report.
+  const std::size_t nv = g.offsets.size() - (g.offsets.empty() ? 0 : 1);
+  for (std::size_t v = 0; v < nv; ++v) {
+    if (g.offsets[v] > g.offsets[v + 1] || g.offsets[v + 1] > g.edges.size()) return;
+    const auto first = g.edges.begin() + g.offsets[v], last = g.edges.begin() + g.offsets[v + 1];
+    if (std::is_sorted(first, last, shorterEdge)) continue;
+    if (std::any_of(first, last, [](const EdgeRecord& e) { return !std::isfinite(e.m); })) return;
+    std::sort(first, last, shorterEdge);
+  }
 }
 
 void computeSafeRadii(DelaunayGraph& g) {

@@ -35,6 +35,22 @@ TEST(SafeRadius, IsHalfTheNearestNeighbourDistanceShrunk) {
   }
 }
 
+TEST(Graph, NeighbourhoodsAreShortestFirstAndOldOrderIsRepaired) {
+  auto g = graphOf(dw_test::uniformCube(500, 47));
+  for (index_t v = 0; v < g->numVertices(); ++v)
+    for (index_t e = g->offsets[v]; e + 1 < g->offsets[v + 1]; ++e) ASSERT_LE(g->edges[e].m, g->edges[e + 1].m);
+  // A graph in the previous order (ascending j, as files of earlier versions hold) fails validation
+  // and is put back in order by sortNeighbourhoods (what loading does).
+  DelaunayGraph old = *g;
+  for (index_t v = 0; v < old.numVertices(); ++v)
+    std::sort(old.edges.begin() + old.offsets[v], old.edges.begin() + old.offsets[v + 1],
+              [](const EdgeRecord& a, const EdgeRecord& b) { return a.j < b.j; });
+  EXPECT_THROW(old.validate(), Error);
+  sortNeighbourhoods(old);
+  EXPECT_NO_THROW(old.validate());
+  EXPECT_EQ(0, std::memcmp(old.edges.data(), g->edges.data(), g->edges.size() * sizeof(EdgeRecord)));
+}
+
 TEST(SafeRadius, TooLargeARadiusFailsValidation) {
   auto g = graphOf(dw_test::uniformCube(200, 42));
   g->validate();
@@ -113,4 +129,39 @@ TEST(EdgeScan, FourWideMatchesTheScalarLoopBitForBit) {
     }
   }
   EXPECT_GT(moves, 1000);  // the move-choosing path was exercised, not only the stopping test
+}
+
+TEST(EdgeScan, ShortestFirstEarlyStopKeepsTheWalksDecision) {
+  // Neighbourhoods sorted by m (the graph's order): stopping at the first edge longer than |u| must
+  // give the same move and the same stop / undecided verdict as reading every edge.
+  std::mt19937 rng(46);
+  std::uniform_real_distribution<float> u(-1.f, 1.f), len(0.01f, 1.f), scale(0.f, 1.5f);
+  int stopped_early = 0, total = 0;
+  for (int degree = 1; degree <= 40; ++degree) {
+    for (int trial = 0; trial < 100; ++trial) {
+      std::vector<EdgeRecord> e(degree);
+      index_t j = 0;
+      for (auto& r : e) {
+        const Vec3f d{u(rng), u(rng), u(rng)};
+        const float n = std::sqrt(dot(d, d));
+        r = {d.x / n, d.y / n, d.z / n, len(rng), j++};
+      }
+      std::sort(e.begin(), e.end(), [](const EdgeRecord& a, const EdgeRecord& b) { return a.m < b.m; });
+      const Vec3f dir{u(rng), u(rng), u(rng)};
+      const float s = scale(rng) * e.back().m / std::sqrt(dot(dir, dir));
+      const Vec3f q{dir.x * s, dir.y * s, dir.z * s};
+      const float dist = std::sqrt(dot(q, q));
+      const float tolerance = 2e-6f * dist + 1e-30f;
+      const float stop_m = dist * 1.0001f + 2.f * tolerance;  // as walk.h
+      const EdgeScan full = scanEdgesScalar(e.data(), e.data() + e.size(), q);
+      for (const EdgeScan& fast : {scanEdges(e.data(), e.data() + e.size(), q, stop_m),
+                                   scanEdgesScalar(e.data(), e.data() + e.size(), q, stop_m)}) {
+        EXPECT_EQ(fast.best, full.best) << degree << "/" << trial;
+        EXPECT_EQ(fast.max_margin > -tolerance, full.max_margin > -tolerance) << degree << "/" << trial;
+      }
+      stopped_early += e.back().m > stop_m;
+      ++total;
+    }
+  }
+  EXPECT_GT(stopped_early, total / 4);  // the early stop was exercised
 }

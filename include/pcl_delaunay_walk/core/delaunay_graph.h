@@ -15,7 +15,9 @@ namespace dw {
 /// Invariants (checked by validate()):
 ///  - points[v] is vertex v relative to origin; vertices are the distinct finite input points in a
 ///    space-filling-curve order, so graph neighbours are mostly near in memory;
-///  - the neighbours of v are edges[offsets[v] .. offsets[v+1]), each edge stored in both directions;
+///  - the neighbours of v are edges[offsets[v] .. offsets[v+1]), each edge stored in both directions,
+///    shortest first (ascending m, ties by ascending j): a walk reads a neighbourhood only up to the
+///    first edge that cannot be a move (see edge_scan.h);
 ///  - input_to_vertex[i] is the vertex of input point i, or kInvalidIndex for a skipped (NaN/Inf) one;
 ///  - originals[originals_offsets[v] .. originals_offsets[v+1]) are the input indices that collapsed
 ///    onto vertex v (duplicates), ascending; the first is v's representative;
@@ -63,6 +65,11 @@ struct DelaunayGraph {
 /// duplicates allowed). Used by every builder so that the layout is defined in one place.
 /// Fills safe_radius2 too.
 void assembleEdges(DelaunayGraph& graph, std::vector<std::pair<index_t, index_t>> undirected_edges);
+
+/// Puts every neighbourhood in the documented order (shortest edge first), sorting only those that
+/// are not: graph files written before this order existed load into the same invariants. O(E) when
+/// already sorted.
+void sortNeighbourhoods(DelaunayGraph& graph);
 
 /// Fills graph.safe_radius2 from the edges. The nearest other vertex of v is always a Delaunay neighbour
 /// (the nearest-neighbour graph is a subgraph of the Delaunay graph), at distance 2 r_v with

@@ -21,10 +21,12 @@ struct EdgeScan {
   index_t best = kInvalidIndex;  ///< that edge's neighbour j: the walk's next vertex
 };
 
-/// The reference definition, one edge at a time; the first edge wins ties of c.
-inline EdgeScan scanEdgesScalar(const EdgeRecord* first, const EdgeRecord* end, const Vec3f& u) {
+/// The reference definition, one edge at a time; the first edge wins ties of c. Stops at the first
+/// edge with m > stop_m (default: reads them all).
+inline EdgeScan scanEdgesScalar(const EdgeRecord* first, const EdgeRecord* end, const Vec3f& u,
+                                float stop_m = INFINITY) {
   EdgeScan s;
-  for (const EdgeRecord* e = first; e != end; ++e) {
+  for (const EdgeRecord* e = first; e != end && !(e->m > stop_m); ++e) {
     const float c = u.x * e->ex + u.y * e->ey + u.z * e->ez;
     const float margin = c - e->m;
     if (margin > 0.f && c > s.best_gain) s.best_gain = c, s.best = e->j;
@@ -35,14 +37,21 @@ inline EdgeScan scanEdgesScalar(const EdgeRecord* first, const EdgeRecord* end, 
 
 /// Same result as scanEdgesScalar, bit for bit (same operation order, same tie rule).
 ///
+/// Neighbourhoods are stored shortest edge first (DelaunayGraph), and c = u . e <= |u|: an edge with
+/// m > |u| can neither be a move nor come near its threshold, and neither can any edge after it. The
+/// walk passes stop_m slightly above |u|, so a query close to x_i reads only x_i's few shortest edges;
+/// that is the safe ball generalised edge by edge. Blocks of four stop at the first block that starts
+/// beyond stop_m (the rest of a block is scanned: harmless).
+///
 /// This is the walk's hot loop: most queries in ICP end at their start vertex after one scan. Each
 /// EdgeRecord begins with {ex, ey, ez, m}, so four unaligned 16-byte loads and a 4x4 transpose give
 /// four edges in SoA form without changing the documented 20-byte record; the move is chosen with
 /// masks instead of a data-dependent branch. SSE2 is part of every x86-64 target; elsewhere (and for
 /// the last degree % 4 edges) the scalar loop runs.
-inline EdgeScan scanEdges(const EdgeRecord* first, const EdgeRecord* end, const Vec3f& u) {
+inline EdgeScan scanEdges(const EdgeRecord* first, const EdgeRecord* end, const Vec3f& u,
+                          float stop_m = INFINITY) {
 #if defined(__SSE2__)
-  if (end - first < 4) return scanEdgesScalar(first, end, u);
+  if (end - first < 4) return scanEdgesScalar(first, end, u, stop_m);
   const __m128 ux = _mm_set1_ps(u.x), uy = _mm_set1_ps(u.y), uz = _mm_set1_ps(u.z);
   const __m128 zero = _mm_setzero_ps();
   __m128 vmargin = _mm_set1_ps(-INFINITY), vgain = zero;
@@ -50,7 +59,7 @@ inline EdgeScan scanEdges(const EdgeRecord* first, const EdgeRecord* end, const 
   __m128i pos = _mm_setr_epi32(0, 1, 2, 3);
   const __m128i four = _mm_set1_epi32(4);
   const EdgeRecord* e = first;
-  for (; end - e >= 4; e += 4, pos = _mm_add_epi32(pos, four)) {
+  for (; end - e >= 4 && !(e->m > stop_m); e += 4, pos = _mm_add_epi32(pos, four)) {
     __m128 ex = _mm_loadu_ps(&e[0].ex), ey = _mm_loadu_ps(&e[1].ex);
     __m128 ez = _mm_loadu_ps(&e[2].ex), m = _mm_loadu_ps(&e[3].ex);
     _MM_TRANSPOSE4_PS(ex, ey, ez, m);
@@ -77,12 +86,12 @@ inline EdgeScan scanEdges(const EdgeRecord* first, const EdgeRecord* end, const 
       s.best_gain = gains[k], best_pos = positions[k];
   }
   if (best_pos >= 0) s.best = first[best_pos].j;
-  const EdgeScan tail = scanEdgesScalar(e, end, u);
+  const EdgeScan tail = scanEdgesScalar(e, end, u, stop_m);
   s.max_margin = std::max(s.max_margin, tail.max_margin);
   if (tail.best != kInvalidIndex && tail.best_gain > s.best_gain) s.best_gain = tail.best_gain, s.best = tail.best;
   return s;
 #else
-  return scanEdgesScalar(first, end, u);
+  return scanEdgesScalar(first, end, u, stop_m);
 #endif
 }
 

@@ -46,9 +46,12 @@ inline WalkResult walk(const DelaunayGraph& g, const Vec3f& q, index_t start) {
     const EdgeRecord* const first = g.edges.data() + g.offsets[i];
     const EdgeRecord* const end = g.edges.data() + g.offsets[i + 1];
     // An edge within rounding of its threshold (c ~ m <= |u|, error < 1e-6 (|u| + m)) is undecided.
-    const float tolerance = 2e-6f * std::sqrt(float(d2)) + 1e-30f;
-    // c - m > 0  <=>  q is closer to x_j; the largest c moves furthest along the descent.
-    const EdgeScan scan = scanEdges(first, end, u);
+    const float dist = std::sqrt(float(d2));
+    const float tolerance = 2e-6f * dist + 1e-30f;
+    // c - m > 0  <=>  q is closer to x_j; the largest c moves furthest along the descent. Edges with
+    // m > stop_m have c - m <= |u| (1 + 1e-6) - m < -tolerance: no move, and not undecided either.
+    const float stop_m = dist * 1.0001f + 2.f * tolerance;
+    const EdgeScan scan = scanEdges(first, end, u, stop_m);
     const index_t best = scan.best;
     const float max_margin = scan.max_margin;  // how near the closest edge came to a move
     bool uncertain = max_margin > -tolerance;
