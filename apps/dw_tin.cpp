@@ -98,9 +98,7 @@ int main(int argc, char** argv) {
     if (in.empty()) throw dw::Error("no input file");
     if (out.empty()) throw dw::Error("no output file (-o out.ply)");
     if (!std::ifstream(in).good()) throw dw::Error(in + ": cannot open for reading");
-    if (opt.num_strips == 0 && opt.num_threads == 0)
-      opt.num_threads = std::max(1u, std::thread::hardware_concurrency());
-    if (opt.num_strips == 0) opt.num_strips = std::max(1u, opt.num_threads);
+    if (opt.num_threads == 0) opt.num_threads = std::max(1u, std::thread::hardware_concurrency());
     if (!quiet)
       opt.progress = [](const std::string& stage, double f) {
         std::fprintf(stderr, "\r  %-8s %5.1f%%", stage.c_str(), 100.0 * f);

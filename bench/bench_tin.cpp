@@ -78,7 +78,6 @@ void BM_DwTin(benchmark::State& state, std::size_t n, unsigned threads) {
     state.ResumeTiming();
     dw::tin::TinOptions o;
     o.num_threads = threads;
-    o.num_strips = threads;
     const auto r = dw::tin::triangulate(std::move(x), std::move(y), o);
     state.PauseTiming();
     tris = r.numTriangles();

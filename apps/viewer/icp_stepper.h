@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/registration/parallel_for.h"
+#include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/search/delaunay_walk.h"
 
 namespace dw_viewer {
@@ -178,9 +178,9 @@ class IcpStepper {
     walk_lengths_.assign(n, 0);
     std::vector<char> widened(n, 0);
     hints_used_ = hints_;
-    const unsigned workers = pcl::registration::detail::workerCount(n, settings_.threads);
+    const unsigned workers = dw::workerCount(n, settings_.threads);
     const auto t0 = std::chrono::steady_clock::now();
-    pcl::registration::detail::parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned) {
+    dw::parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned) {
       for (std::size_t i = b; i < e; ++i) {
         const auto& p = (*current_)[i];
         const float q[3] = {p.x, p.y, p.z};

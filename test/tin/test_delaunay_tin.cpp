@@ -90,6 +90,23 @@ TEST(DelaunayTin, DuplicatesCollapseOntoSmallestIndex) {
   expectStripInvariant(c, 5);
 }
 
+TEST(DelaunayTin, AutomaticStripsSameTrianglesForEveryThreadCount) {
+  // Above 200k points the default splits into several strips per thread and fills the output array on
+  // a helper thread; the triangles must not depend on either. LAS-like quantisation: ties and copies.
+  const Cloud c = dw_test::quantisedCloud(260000, 41, 30.0);
+  const auto ref = run(c, 1);
+  expectCertified(c, ref);
+  const auto want = canonical(ref.triangles);
+  for (unsigned t : {1u, 2u, 4u}) {
+    const auto r = run(c, 0, t);
+    EXPECT_GE(r.stats.strips, t > 1 ? 2u * t : 1u) << t << " threads";
+    ASSERT_EQ(canonical(r.triangles), want) << t << " threads";
+    EXPECT_EQ(r.duplicates, ref.duplicates);
+    EXPECT_EQ(r.num_vertices, ref.num_vertices);
+    EXPECT_LE(r.triangles.capacity(), 2 * r.triangles.size()) << "output storage not trimmed";
+  }
+}
+
 TEST(DelaunayTin, CollinearInputIsDegenerate) {
   Cloud c;
   for (int i = 0; i < 100; ++i) c.add(3.0 + 0.5 * (i % 37), 1.0 + 0.25 * (i % 37));  // 37 distinct, copies

@@ -40,7 +40,8 @@ class DelaunayTin : public MeshConstruction<PointInT> {
   /** \brief Get the number of threads (0: all hardware threads). */
   unsigned getNumberOfThreads() const { return options_.num_threads; }
 
-  /** \brief Set the number of strips (0: one per thread, 1: the sequential kernel).
+  /** \brief Set the number of strips (0: automatic, about 1M points per strip and at least
+   * two per thread; 1: the sequential kernel).
    * \param[in] strips number of strips along the long axis */
   void setNumberOfStrips(unsigned strips) { options_.num_strips = strips; }
   /** \brief Get the number of strips. */

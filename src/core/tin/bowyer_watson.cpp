@@ -70,7 +70,8 @@ index_t BowyerWatson::locate(index_t p, index_t* dup) {
         break;
       }
   }
-  index_t came = kDead;
+  // Corners reach 3.6e9 at the 600M-point limit, so "none" must be a value no corner takes (not kDead).
+  index_t came = ~index_t{0};
   // The visibility walk terminates in any (perturbed) Delaunay triangulation: the "in front of"
   // relation seen from p is acyclic (Edelsbrunner 1990). The step limit only guards against a bug.
   const std::size_t limit = 4 * static_cast<std::size_t>(next_ - base_) + 16;

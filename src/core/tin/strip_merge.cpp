@@ -67,9 +67,54 @@ std::vector<index_t> collectBand(const PointSet& ps, index_t* tv, const index_t*
   return band;
 }
 
+/// "No corner": corners 3t + i reach 3.6e9 at the 600M-point limit, past kDead (2^31 - 1).
+constexpr index_t kNoCorner = ~index_t{0};
+
 inline std::uint64_t edgeKey(index_t a, index_t b) {
   return (static_cast<std::uint64_t>(a) << 32) | b;
 }
+
+/// The walls as an open-addressing hash map from directed edge to the corner of the sure triangle
+/// across it. Every edge of DT(V_U) is looked up once; a sorted array with binary search made those
+/// lookups half of the merge's own time.
+class WallTable {
+ public:
+  explicit WallTable(std::size_t walls) {
+    std::size_t cap = 16;
+    while (cap < 2 * walls) cap *= 2;
+    mask_ = cap - 1;
+    keys_.assign(cap, kEmpty);
+    corners_.resize(cap);
+  }
+  /// False if the edge is already present.
+  bool insert(std::uint64_t key, index_t corner) {
+    for (std::size_t h = slot(key);; h = (h + 1) & mask_) {
+      if (keys_[h] == key) return false;
+      if (keys_[h] == kEmpty) {
+        keys_[h] = key;
+        corners_[h] = corner;
+        return true;
+      }
+    }
+  }
+  /// The corner stored for the edge, or kNoCorner.
+  index_t find(std::uint64_t key) const {
+    for (std::size_t h = slot(key);; h = (h + 1) & mask_) {
+      if (keys_[h] == key) return corners_[h];
+      if (keys_[h] == kEmpty) return kNoCorner;
+    }
+  }
+
+ private:
+  // Vertex positions are below kGhost, so no edge has this key.
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+  std::size_t slot(std::uint64_t key) const {
+    return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> 32) & mask_;
+  }
+  std::size_t mask_ = 0;
+  std::vector<std::uint64_t> keys_;
+  std::vector<index_t> corners_;
+};
 
 }  // namespace
 
@@ -108,7 +153,9 @@ Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam
     }
   std::sort(verts.begin(), verts.end());
   verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-  std::sort(walls.begin(), walls.end());
+  WallTable wall_table(walls.size());
+  for (const auto& w : walls)
+    if (!wall_table.insert(w.first, w.second)) mergeError("band boundary edge seen twice");
   if (band_points) *band_points += verts.size();
 
   // DT(V_U) in a private arena, on the same global positions and ranks.
@@ -136,17 +183,16 @@ Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam
   // Classify DT(V_U): 2 = band side of a wall (kept), 1 = covered by sure triangles (dropped).
   const index_t used = kernel.used();
   std::vector<unsigned char> state(used, 0);
-  std::vector<index_t> wall_of(3 * static_cast<std::size_t>(used), kDead);
+  std::vector<index_t> wall_of(3 * static_cast<std::size_t>(used), kNoCorner);
   std::vector<index_t> flood;
   std::size_t walls_found = 0;
   for (index_t t = 0; t < used; ++t) {
     for (index_t i = 0; i < 3; ++i) {
       const index_t u0 = tv2[3 * t + next3(i)], u1 = tv2[3 * t + prev3(i)];
       if (u0 == kGhost || u1 == kGhost) continue;
-      const std::uint64_t key = edgeKey(u0, u1);
-      const auto it = std::lower_bound(walls.begin(), walls.end(), std::make_pair(key, index_t{0}));
-      if (it == walls.end() || it->first != key) continue;
-      wall_of[3 * t + i] = it->second;
+      const index_t corner = wall_table.find(edgeKey(u0, u1));
+      if (corner == kNoCorner) continue;
+      wall_of[3 * t + i] = corner;
       ++walls_found;
       if (state[t] == 1) mergeError("triangle on both sides of the band boundary");
       state[t] = 2;
@@ -164,9 +210,9 @@ Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam
     const index_t t = flood.back();
     flood.pop_back();
     for (index_t i = 0; i < 3; ++i) {
-      if (wall_of[3 * t + i] != kDead) mergeError("covered triangle on a wall");
+      if (wall_of[3 * t + i] != kNoCorner) mergeError("covered triangle on a wall");
       const index_t nc = tn2[3 * t + i];
-      if (wall_of[nc] != kDead) continue;  // a wall seen from its sure side
+      if (wall_of[nc] != kNoCorner) continue;  // a wall seen from its sure side
       const index_t n = nc / 3;
       if (state[n] == 1) continue;
       if (state[n] == 2 || isGhost(tv2.data(), n)) mergeError("covered region leaks into the band");
@@ -194,7 +240,7 @@ Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam
     if (isGhost(tv2.data(), t)) out.ghost = s;
     for (index_t i = 0; i < 3; ++i) {
       const index_t w = wall_of[3 * t + i];
-      if (w != kDead) {
+      if (w != kNoCorner) {
         tn[3 * s + i] = w;
         tn[w] = 3 * s + i;
         continue;

@@ -23,8 +23,10 @@ using TinProgress = std::function<void(const std::string& stage, double fraction
 
 struct TinOptions {
   unsigned num_threads = 0;  ///< 0: hardware concurrency
-  unsigned num_strips = 0;   ///< 0: one per thread (one below 200k points); 1: the sequential kernel
-  TinProgress progress;      ///< optional
+  /// 0: automatic (one below 200k points; else about 1M points per strip, at least two per thread, a
+  /// multiple of the thread count); 1: the sequential kernel. The triangles do not depend on it.
+  unsigned num_strips = 0;
+  TinProgress progress;  ///< optional
 };
 
 /// Timings and sizes of one run (seconds; for benchmarks and the app).
@@ -32,6 +34,8 @@ struct TinStats {
   double prepare_s = 0, strips_s = 0, merge_s = 0, output_s = 0;
   std::size_t strips = 0;        ///< strips actually used (non-empty)
   std::size_t merge_points = 0;  ///< points re-triangulated in all merge bands together
+  double strip_max_s = 0;        ///< the longest single strip (sort + kernel): the strips' critical path
+  double fill_wait_s = 0;        ///< longest wait of a strip for the output array's zero fill (helper thread)
 };
 
 struct TinResult {

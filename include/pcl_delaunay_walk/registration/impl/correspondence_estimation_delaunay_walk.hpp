@@ -7,8 +7,9 @@
 #include <chrono>
 #include <cmath>
 
+#include "pcl_delaunay_walk/core/parallel_for.h"
+#include "pcl_delaunay_walk/core/query_order.h"
 #include "pcl_delaunay_walk/registration/correspondence_estimation_delaunay_walk.h"
-#include "pcl_delaunay_walk/registration/parallel_for.h"
 
 namespace pcl {
 namespace registration {
@@ -77,17 +78,26 @@ void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::sea
   std::vector<pcl::Correspondence> found(n);
   std::vector<unsigned char> keep(n, 0);
   std::vector<dw::index_t> new_hints(n, dw::kInvalidIndex);
-  const unsigned workers = detail::workerCount(n, nr_threads_);
+  const unsigned workers = dw::workerCount(n, nr_threads_);
   std::vector<DelaunayWalkIterationStats> partial(workers);
+  // With hints, walk the batch grouped by start vertex (graph memory order) rather than source order;
+  // each slot still gets its own query's answer, so the output is the same.
+  std::vector<dw::index_t> order;
+  if (use_hints) {
+    std::vector<dw::index_t> start(n);
+    for (std::size_t i = 0; i < n; ++i) start[i] = hints_[(*indices_)[i]];
+    order = dw::orderByStartVertex(start.data(), n, wq.neighbourSearch().graph().numVertices());
+  }
 
-  detail::parallelFor(n, workers, [&](std::size_t begin, std::size_t end, unsigned w) {
+  dw::parallelFor(n, workers, [&](std::size_t begin, std::size_t end, unsigned w) {
     DelaunayWalkIterationStats& st = partial[w];
     pcl::Indices index_r(1);
     std::vector<float> dist_r(1);
     PointSource as_source;
     constexpr std::size_t kAhead = 6;  // queries between a start-vertex prefetch and its walk
-    for (std::size_t i = begin; i < end; ++i) {
-      if (use_hints && i + kAhead < end) wq.neighbourSearch().prefetchStart(hints_[(*indices_)[i + kAhead]]);
+    for (std::size_t k = begin; k < end; ++k) {
+      if (use_hints && k + kAhead < end) wq.neighbourSearch().prefetchStart(hints_[(*indices_)[order[k + kAhead]]]);
+      const std::size_t i = use_hints ? order[k] : k;
       const auto idx = (*indices_)[i];
       const PointSource& p = (*input_)[idx];
       const float q[3] = {p.x, p.y, p.z};

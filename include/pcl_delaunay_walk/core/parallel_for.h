@@ -1,0 +1,116 @@
+/// \file parallel_for.h
+/// \brief The core's two parallel loops on std::thread (no OpenMP/TBB dependency):
+///   - parallelFor: static contiguous blocks. Which indices one worker handles depends only on n and
+///     the worker count, so per-block state (e.g. statistics) and every result built from it are the
+///     same on every run; results written per index are the same for any worker count.
+///   - parallelForDynamic: tasks handed out one at a time from a shared counter, for tasks of uneven
+///     cost (strips, merges, chunks) whose results are written per task index.
+/// Both run the calling thread as worker 0 and rethrow the first exception once every worker has
+/// finished, so no worker outlives the call.
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <cstddef>
+#include <exception>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace dw {
+
+/// Worker threads to use for `requested` (0: hardware concurrency, at least 1).
+inline unsigned resolveThreads(unsigned requested) {
+  return requested ? requested : std::max(1u, std::thread::hardware_concurrency());
+}
+
+/// Number of workers for n items: resolveThreads(requested), but no more than one per `min_block`
+/// items, since starting a thread costs about as much as a few thousand cheap iterations.
+inline unsigned workerCount(std::size_t n, unsigned requested, std::size_t min_block = 4096) {
+  const std::size_t by_size = std::max<std::size_t>(1, n / std::max<std::size_t>(1, min_block));
+  return static_cast<unsigned>(std::min<std::size_t>(resolveThreads(requested), by_size));
+}
+
+/// Calls body(begin, end, worker) once for each of `workers` contiguous blocks of [0, n): block w is
+/// [w c, min(n, (w + 1) c)) with c = ceil(n / workers). Rethrows the first exception (by worker index)
+/// after all workers have finished.
+template <typename Body>
+void parallelFor(std::size_t n, unsigned workers, Body&& body) {
+  if (workers <= 1 || n < 2) {
+    body(std::size_t(0), n, 0u);
+    return;
+  }
+  std::vector<std::thread> pool;
+  std::vector<std::exception_ptr> errors(workers);
+  const std::size_t chunk = (n + workers - 1) / workers;
+  auto run = [&](unsigned w) {
+    const std::size_t b = std::min(n, w * chunk), e = std::min(n, b + chunk);
+    try {
+      body(b, e, w);
+    } catch (...) {
+      errors[w] = std::current_exception();
+    }
+  };
+  pool.reserve(workers - 1);
+  unsigned started = 1;
+  // A thread that cannot be started (resource limits) is not an error: its block runs here instead.
+  // Leaving the loop by exception would destroy joinable threads, which terminates the program.
+  for (; started < workers; ++started) {
+    try {
+      pool.emplace_back(run, started);
+    } catch (...) {
+      break;
+    }
+  }
+  run(0);
+  for (unsigned w = started; w < workers; ++w) run(w);
+  for (auto& t : pool) t.join();
+  for (auto& e : errors)
+    if (e) std::rethrow_exception(e);
+}
+
+/// Calls fn(i) for every i < count on up to `threads` threads (0: hardware concurrency), each thread
+/// taking the next unclaimed index when it finishes one, so uneven tasks balance. Rethrows the first
+/// exception thrown (the remaining tasks still run) after all threads have finished.
+template <typename F>
+void parallelForDynamic(std::size_t count, unsigned threads, F&& fn) {
+  const unsigned workers = static_cast<unsigned>(std::min<std::size_t>(resolveThreads(threads), count));
+  std::exception_ptr error;
+  if (workers <= 1) {
+    for (std::size_t i = 0; i < count; ++i) {
+      try {
+        fn(i);
+      } catch (...) {
+        if (!error) error = std::current_exception();
+      }
+    }
+    if (error) std::rethrow_exception(error);
+    return;
+  }
+  std::atomic<std::size_t> next{0};
+  std::mutex error_mutex;
+  auto body = [&]() {
+    for (std::size_t i = next++; i < count; i = next++) {
+      try {
+        fn(i);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  pool.reserve(workers - 1);
+  for (unsigned w = 1; w < workers; ++w) {
+    try {
+      pool.emplace_back(body);
+    } catch (...) {
+      break;  // fewer threads: the shared counter still hands out every index
+    }
+  }
+  body();
+  for (auto& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+}
+
+}  // namespace dw

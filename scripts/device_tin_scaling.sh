@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Run ON THE DEVICE MACHINE (16 CPU cores, no PCL) from the repository root, with .deps carried (Qhull for
+# the core's reference tests): builds the PCL-free TIN targets, runs the TIN tests, and measures the
+# parallel TIN's thread scaling on synthetic airborne tiles generated there (never carried). Logs go to
+# $OUT (or ./out).
+#   usage: scripts/device_tin_scaling.sh [SIZE...]     (default: 2.1M 10M 21M)
+set -uo pipefail
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+OUT=${OUT:-$ROOT/out}
+DEPS=$ROOT/.deps
+BUILD=${DW_DEVICE_BUILD:-/tmp/dw-build-tin}
+SIZES=("$@")
+[ ${#SIZES[@]} -gt 0 ] || SIZES=(2.1M 10M 21M)
+mkdir -p "$OUT"
+{ lscpu | grep -E "Model name|^CPU\(s\)|Thread|Socket|NUMA node\(s\)"; free -g | head -2;
+  echo "THP: $(cat /sys/kernel/mm/transparent_hugepage/enabled)"; uptime; } | tee "$OUT/tin_machine.txt"
+
+cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDW_WITH_PCL=OFF -DDW_WITH_MPI=OFF \
+  -DDW_WITH_CUDA=OFF -DDW_BUILD_BENCHMARKS=OFF -DQhull_DIR="$DEPS/qhull/lib/cmake/Qhull" \
+  > "$OUT/tin_configure.log" 2>&1 || { tail -30 "$OUT/tin_configure.log"; exit 1; }
+cmake --build "$BUILD" --target dw_tin_scaling test_tin -j"$(nproc)" > "$OUT/tin_build.log" 2>&1 \
+  || { grep -E "error|FAILED" "$OUT/tin_build.log" | head -30; exit 1; }
+
+timeout 120 "$BUILD/test/test_tin" > "$OUT/test_tin.log" 2>&1
+echo "test_tin exit $? ($(grep -c '^\[       OK' "$OUT/test_tin.log") ok, $(grep -c '^\[  FAILED' "$OUT/test_tin.log") failed lines)"
+
+S="$BUILD/apps/dw_tin_scaling"
+rc=0
+for n in "${SIZES[@]}"; do
+  echo "== $n points, 1-16 threads (automatic strips), best of 3"
+  timeout 200 "$S" -n "$n" --threads 1,2,4,8,16 --repeats 3 2>&1 | tee "$OUT/tin_scaling_$n.txt" || rc=1
+done
+# Two otherwise idle cores of the device: the 1 -> 2 thread ratio without other users' load.
+for n in 10M 21M; do
+  echo "== $n points on 2 cores (taskset -c 2,3), best of 2"
+  timeout 120 taskset -c 2,3 "$S" -n $n --threads 1,2 --repeats 2 2>&1 | tee "$OUT/tin_2cores_$n.txt" || rc=1
+done
+echo "== 21M points, 16 threads, strip counts"
+timeout 90 "$S" -n 21M --threads 16 --strips 0,16,64 2>&1 | tee "$OUT/tin_strips_21M.txt" || rc=1
+exit $rc
