@@ -1,6 +1,7 @@
 /// \file dw_tin_mpi.cpp
-/// \brief Distributed Delaunay TIN of a LAS file over MPI ranks.
+/// \brief Distributed Delaunay TIN of a LAS file, or of a pre-split set of LAS files, over MPI ranks.
 ///   mpirun -np N dw_tin_mpi input.las -o PREFIX        (pieces PREFIX.rank<r>.ply + PREFIX.manifest.json)
+///   mpirun -np N dw_tin_mpi a.las b.las ... -o PREFIX  (or --list files.txt: the files' records in order)
 ///   mpirun -np N dw_tin_mpi input.las --gather -o out.ply
 /// Exit status: 0 success; 1 bad input or a failing rank (all ranks are aborted, no manifest); 2 usage;
 /// 3 --verify found a difference from the single-process triangulation.
@@ -16,20 +17,25 @@
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/mpi/distributed_tin.h"
+#include "pcl_delaunay_walk/mpi/las_input_set.h"
 
 namespace {
 
 void usage() {
   std::fprintf(
       stderr,
-      "usage: mpirun -np N dw_tin_mpi input.las -o PREFIX|out.ply [--gather] [--class C] [--threads T]\n"
-      "                  [--verify] [--max-points N] [--quiet] [--inject fail|kill:STAGE:RANK]\n"
+      "usage: mpirun -np N dw_tin_mpi input.las [more.las ...] [--list FILE] -o PREFIX|out.ply [--gather]\n"
+      "                  [--class C] [--threads T] [--verify] [--max-points N] [--quiet]\n"
+      "                  [--inject fail|kill:STAGE:RANK]\n"
+      "  inputs      one LAS file or a pre-split set (several paths and/or --list FILE, one path per\n"
+      "              line, relative to FILE's folder): their records in that order are the cloud; every\n"
+      "              rank reads only its own range of them\n"
       "  -o PREFIX   per-rank pieces PREFIX.rank<r>.ply and, written last, PREFIX.manifest.json\n"
       "  --gather    one PLY on rank 0 instead (-o out.ply); rank 0 then holds the whole mesh\n"
       "  --class C   keep points of LAS classification C (2 = ground)\n"
       "  --threads T threads per rank for the local triangulations (default 1)\n"
       "  --verify    rank 0 also runs the single-process dw::tin::triangulate and compares\n"
-      "  --max-points N  use only the first N records of the file (weak-scaling runs)\n"
+      "  --max-points N  use only the first N records of the input (weak-scaling runs)\n"
       "  --inject    testing: make RANK fail (exception) or be killed at STAGE\n"
       "              (read, leaf, merge, write)\n");
 }
@@ -48,16 +54,13 @@ std::vector<std::array<dw::index_t, 3>> canonicalSet(const std::vector<dw::index
 
 /// Rank 0: the single-process run on the same frame; true when the triangle sets are identical.
 bool verify(const dw::mpi::DistributedTinOptions& o, const std::vector<dw::index_t>& got, unsigned threads) {
-  dw::las::LasReadOptions lo;
-  lo.classification = o.classification;
-  const dw::las::LasCloud las = dw::las::readLasFile(o.input, lo);
-  const bool same = las.header.scale[0] == las.header.scale[1];
-  const std::size_t n = o.max_records ? std::min<std::size_t>(o.max_records, las.size()) : las.size();
-  std::vector<double> x(n), y(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    x[i] = same ? double(las.X[i]) : las.X[i] * las.header.scale[0];
-    y[i] = same ? double(las.Y[i]) : las.Y[i] * las.header.scale[1];
-  }
+  const dw::mpi::LasInputSet input(o.inputs, o.max_records);
+  std::vector<double> x, y;
+  input.forEach(0, input.size(), [&](const dw::las::LasRecord& r, double px, double py, double) {
+    if (o.classification >= 0 && r.classification != o.classification) return;
+    x.push_back(px);
+    y.push_back(py);
+  });
   dw::tin::TinOptions topt;
   topt.num_threads = threads;
   const dw::tin::TinResult ref = dw::tin::triangulate(std::move(x), std::move(y), topt);
@@ -114,8 +117,11 @@ int main(int argc, char** argv) {
         if (rank == 0) usage();
         MPI_Finalize();
         return 0;
-      } else if (!a.empty() && a[0] != '-' && opt.input.empty())
-        opt.input = a;
+      } else if (a == "--list") {
+        const std::vector<std::string> l = dw::mpi::readPathList(next());
+        opt.inputs.insert(opt.inputs.end(), l.begin(), l.end());
+      } else if (!a.empty() && a[0] != '-')
+        opt.inputs.push_back(a);
       else
         throw std::invalid_argument(a);
     } catch (const std::exception&) {
@@ -127,12 +133,7 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (check && opt.max_records && opt.classification >= 0) {
-    if (rank == 0) std::fprintf(stderr, "dw_tin_mpi: --verify cannot combine --max-points with --class\n");
-    MPI_Finalize();
-    return 2;
-  }
-  if (opt.input.empty() || out.empty()) {
+  if (opt.inputs.empty() || out.empty()) {
     if (rank == 0) usage();
     MPI_Finalize();
     return 2;

@@ -6,8 +6,9 @@
 //                                        up to 30 iterations); ns_per_query is the per-query NN time
 //
 // Data sets: $DW_BENCH_DATASETS (comma list, default dragon-23k,dragon-100k); brute force only up to
-// 11k points, as in the seed. Methods: $DW_BENCH_METHODS (comma list, default all; any name dw_bench
-// takes, e.g. walk-pnn-optimized-sorted-prefetch@qhull). The protocol runner with CSV output is
+// 11k points, as in the seed. Thread counts of the NN runs: $DW_BENCH_THREADS (comma list, default 1,2;
+// e.g. 1,2,4,8,16 on a 16-core machine). Methods: $DW_BENCH_METHODS (comma list, default all; any name
+// dw_bench takes, e.g. walk-pnn-optimized-sorted-prefetch@qhull). The protocol runner with CSV output is
 // apps/dw_bench.
 #include <benchmark/benchmark.h>
 
@@ -93,6 +94,17 @@ void benchNn(benchmark::State& state, std::string data, std::string method) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::vector<long> threads;
+  const char* tenv = std::getenv("DW_BENCH_THREADS");
+  for (const auto& t : splitList(tenv ? tenv : "1,2")) {
+    char* end = nullptr;
+    const long v = std::strtol(t.c_str(), &end, 10);
+    if (*end != '\0' || v < 1 || v > 256) {
+      std::cerr << "bench_search: DW_BENCH_THREADS must list thread counts in 1..256, got '" << t << "'\n";
+      return 2;
+    }
+    threads.push_back(v);
+  }
   const char* env = std::getenv("DW_BENCH_DATASETS");
   const auto datasets = splitList(env ? env : "dragon-23k,dragon-100k");
   for (const auto& d : datasets) {
@@ -115,12 +127,11 @@ int main(int argc, char** argv) {
             ->Unit(benchmark::kMillisecond)
             ->MeasureProcessCPUTime()
             ->UseRealTime();
-      benchmark::RegisterBenchmark(("NN/" + d + "/" + m).c_str(), benchNn, d, m)
-          ->ArgName("threads")
-          ->Arg(1)
-          ->Arg(2)
-          ->Unit(benchmark::kMillisecond)
-          ->UseRealTime();
+      auto* b = benchmark::RegisterBenchmark(("NN/" + d + "/" + m).c_str(), benchNn, d, m)
+                    ->ArgName("threads")
+                    ->Unit(benchmark::kMillisecond)
+                    ->UseRealTime();
+      for (long t : threads) b->Arg(t);
     }
   }
   for (const auto& d : datasets) {

@@ -5,11 +5,15 @@
 #   scripts/benchmark.sh --quick        a few minutes on 2 cores: small clouds, one rotation, and the
 #                                       acceptance ratios on the 100k dragon
 #   scripts/benchmark.sh                the seed's full protocol (124 rotations x 2 noise levels x every
-#                                       data set and peer): hours on 2 cores
-#   scripts/benchmark.sh -- ARGS        extra arguments go to dw_bench (see build-bench/apps/dw_bench --help)
+#                                       data set at base and half fidelity, every peer; bench/run_grid.sh
+#                                       on JOBS processes), thread scaling up to JOBS threads, the
+#                                       acceptance run: about 3 CPU-hours (1.5-2 hours on 2 idle cores;
+#                                       bench/device_run_grid.sh ran it on 15 cores in two 6-minute calls)
+#   scripts/benchmark.sh --quick -- ARGS  extra arguments go to dw_bench (see build-bench/apps/dw_bench --help)
 #
-# Environment: BUILD_DIR (default build-bench), OUT (default $BUILD_DIR/bench-results), JOBS (default 2),
-# DW_DATA_DIR (the real data, default ../shared/data), FIGURES (default docs/figures), PYTHON.
+# Environment: BUILD_DIR (default build-bench), OUT (default $BUILD_DIR/bench-results), JOBS (default 2:
+# build jobs, grid processes and the largest thread count), DW_DATA_DIR (the real data, default
+# ../shared/data), FIGURES (default docs/figures), PYTHON.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -49,8 +53,25 @@ else
   MIN_TIME=0.5
 fi
 
-echo "== dw_bench (protocol runner, CSV into $OUT)"
-"$BUILD_DIR/apps/dw_bench" "${DW_ARGS[@]}" --out "$OUT" "${EXTRA[@]}" | tee "$OUT/dw_bench.log"
+# The plots merge every CSV under $OUT: clear what the other mode left there.
+if [ "$QUICK" = 1 ]; then
+  rm -rf "$OUT/grid" "$OUT/scaling" "$OUT/accept"
+  echo "== dw_bench (protocol runner, CSV into $OUT)"
+  "$BUILD_DIR/apps/dw_bench" "${DW_ARGS[@]}" --out "$OUT" "${EXTRA[@]}" | tee "$OUT/dw_bench.log"
+else
+  rm -f "$OUT"/*.csv
+  rm -rf "$OUT/grid"
+  THREADS=1
+  for t in 2 4 8 16 32 64; do [ "$t" -le "$JOBS" ] && THREADS=$THREADS,$t; done
+  echo "== thread scaling ($THREADS threads) into $OUT/scaling"
+  "$BUILD_DIR/apps/dw_bench" --sections nn --datasets dragon-100k,lidar-69k --threads "$THREADS" --repeats 2 \
+    --methods pcl-kdtree,nanoflann,walk-kd-ann,walk-pnn,walk-pnn-optimized,walk-pnn-optimized-prefetch \
+    --out "$OUT/scaling" | tee "$OUT/scaling.log"
+  echo "== the rotation grid on $JOBS processes into $OUT/grid (bench/run_grid.sh)"
+  bench/run_grid.sh --bin "$BUILD_DIR/apps" --out "$OUT/grid" --workers "$JOBS" --plan all
+  echo "== acceptance on dragon-100k into $OUT/accept"
+  "$BUILD_DIR/apps/dw_bench" --sections accept --out "$OUT/accept" "${EXTRA[@]}" | tee "$OUT/accept.log"
+fi
 
 echo "== Google Benchmark: NN search ($SEARCH_DATA)"
 DW_BENCH_DATASETS=$SEARCH_DATA "$BUILD_DIR/bench/bench_search" --benchmark_min_time=$MIN_TIME \

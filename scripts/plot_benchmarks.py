@@ -7,9 +7,21 @@ iterations (Fig. 14) and the ICP step breakdown (Figs. 1-2); plus per-query NN t
 Tables (markdown, for docs/benchmarks.md) go to <results>/tables.md.
 
 usage: plot_benchmarks.py RESULTS_DIR [--figures docs/figures]
+
+RESULTS_DIR holds dw_bench's CSV files, or folders of them (bench/run_grid.sh writes one folder per job:
+files of the same name are concatenated; where two rows measure the same thing, the one from the file
+that sorts last wins). A `scaling/` folder (bench/device_run_grid.sh: the thread scaling run, alone on
+the machine) feeds the thread-scaling table only. RESULTS_DIR/runs.txt may name, one per line in the
+order they were made, folders that each hold one whole run on one machine (e.g. two device calls):
+a table row then never mixes runs: each ICP row comes from the latest run with at least
+MIN_ROTATIONS rotations that every method finished (else the run with the most), each per-query row
+from the run with the most methods. RESULTS_DIR/superseded.txt may list, one per line,
+"<folder> <method,method,...>": rows of those methods under that folder are ignored (e.g. walk rows
+of a run made before a change to the walk, when a later run redid them).
 """
 import argparse
 import csv
+import glob
 import math
 import os
 import statistics
@@ -30,11 +42,72 @@ SEED_WALKS = {"walk-zero": "~26 (dragon 62k)", "walk-kd-ann": "~5 (dragon 62k)",
               "walk-pnn": "1.4-2.1 (teapot 1.39 -> 1.56 when doubled)", "walk-pnn-optimized": "~1.4-2"}
 
 
-def read(path):
+def read_one(path):
     if not os.path.exists(path):
         return []
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
+
+
+def superseded(res):
+    out = []
+    path = os.path.join(res, "superseded.txt")
+    if os.path.exists(path):
+        with open(path) as f:
+            for line in f:
+                words = line.split()
+                if len(words) == 2 and not words[0].startswith("#"):
+                    out.append((words[0].rstrip("/") + "/", set(words[1].split(","))))
+    return out
+
+
+def read(path, scaling=False):
+    """Rows of RESULTS/name and of every RESULTS/**/name (one folder per job), concatenated in path
+    order; each row remembers its file in "_src". The scaling run's files are read only when asked for
+    (they were measured under other conditions)."""
+    res, name = os.path.split(path)
+    sup = superseded(res)
+    rows = []
+    for p in sorted({path} | set(glob.glob(os.path.join(res, "**", name), recursive=True))):
+        rel = os.path.relpath(p, res)
+        in_scaling = os.sep + "scaling" + os.sep in os.sep + rel
+        if in_scaling != scaling:
+            continue
+        drop = set()
+        for folder, methods in sup:
+            if rel.startswith(folder):
+                drop |= methods
+        for r in read_one(p):
+            if r.get("method") not in drop:
+                r["_src"] = rel
+                rows.append(r)
+    return rows
+
+
+MIN_ROTATIONS = 25  # enough rotations for a stable median (of 124)
+
+
+def runs_of(res):
+    path = os.path.join(res, "runs.txt")
+    if not os.path.exists(path):
+        return []
+    with open(path) as f:
+        return [l.strip().rstrip("/") for l in f if l.strip() and not l.startswith("#")]
+
+
+def run_of(r, runs):
+    first = r["_src"].split(os.sep)[0]
+    return first if first in runs else ""
+
+
+def latest(rows, key):
+    """Of rows grouped by key(row), only those from the last file (by path) that has the group: a
+    histogram or an iteration trace must not mix two runs."""
+    last = {}
+    for r in rows:
+        k = key(r)
+        last[k] = max(last.get(k, ""), r["_src"])
+    return [r for r in rows if r["_src"] == last[key(r)]]
 
 
 def order(methods):
@@ -86,6 +159,14 @@ def nn_section(res, figs, md):
     if not rows:
         return
     data = dataset_order(rows)
+    run_names = runs_of(res)
+    if run_names:  # each data set's row from one run: the one with the most methods (ties: the later)
+        keep = {}
+        for d in data:
+            counts = {run: len({r["method"] for r in rows if r["dataset"] == d and run_of(r, run_names) == run})
+                      for run in run_names}
+            keep[d] = max(run_names, key=lambda run: (counts[run], run_names.index(run)))
+        rows = [r for r in rows if run_of(r, run_names) == keep[r["dataset"]]]
     one = {(r["dataset"], r["method"]): r for r in rows if r["threads"] == "1"}
     methods = order({r["method"] for r in rows})
     key = "cpu_ns_per_query" if "cpu_ns_per_query" in rows[0] else "ns_per_query"
@@ -106,22 +187,6 @@ def nn_section(res, figs, md):
         body.append(line)
     md.append(table(hdr, body))
     md.append("")
-    # Thread scaling.
-    threads = sorted({int(r["threads"]) for r in rows})
-    if len(threads) > 1:
-        md.append("### Thread scaling (wall-clock ns/query; speed-up over one thread)\n")
-        body = []
-        for d in data:
-            for m in methods:
-                cells = {int(r["threads"]): float(r["ns_per_query"]) for r in rows
-                         if r["dataset"] == d and r["method"] == m}
-                if 1 not in cells:
-                    continue
-                body.append([d, m] + [f"{cells[t]:.0f} ({cells[1] / cells[t]:.2f}×)" if t in cells else "–"
-                                      for t in threads] + ["not measured here"])
-        md.append(table(["data set", "method"] + [f"{t} thread{'s' if t > 1 else ''}" for t in threads] +
-                        ["16 threads"], body))
-        md.append("")
     # Walk statistics next to the seed's.
     md.append("### Walk counts (moves per query; the seed counts visited vertices = moves + 1)\n")
     body = []
@@ -144,7 +209,7 @@ def nn_section(res, figs, md):
                 ys.append(float(one[(d, m)][key]))
         ax.bar(xs, ys, width, label=m)
     ax.set_xticks([i + 0.4 - width / 2 for i in range(len(data))])
-    ax.set_xticklabels(data, fontsize=8)
+    ax.set_xticklabels(data, fontsize=8, rotation=20, ha="right")
     ax.set_yscale("log")
     ax.set_ylabel("%s ns per query (1 thread)" % ("CPU" if key.startswith("cpu") else "wall"))
     ax.set_title("Exact NN on ICP-like query sequences")
@@ -154,8 +219,47 @@ def nn_section(res, figs, md):
     plt.close(fig)
 
 
+def scaling_section(res, figs, md):
+    """Thread scaling: from the scaling run (alone on its machine) where there is one, else from the
+    per-query runs' own thread counts."""
+    rows = read(os.path.join(res, "nn.csv"))
+    srows = read(os.path.join(res, "nn.csv"), scaling=True) or rows
+    threads = sorted({int(r["threads"]) for r in srows})
+    if len(threads) > 1:
+        md.append("### Thread scaling (wall-clock ns/query; speed-up over one thread)\n")
+        body = []
+        sdata = dataset_order(srows)
+        smethods = order({r["method"] for r in srows})
+        fig, axes = plt.subplots(1, len(sdata), figsize=(5 * len(sdata), 4), squeeze=False)
+        for ax, d in zip(axes[0], sdata):
+            for m in smethods:
+                mine = latest([r for r in srows if r["dataset"] == d and r["method"] == m],
+                              lambda r: run_of(r, runs_of(res)) and "") if runs_of(res) else \
+                    [r for r in srows if r["dataset"] == d and r["method"] == m]
+                cells = {int(r["threads"]): float(r["ns_per_query"]) for r in mine}
+                if 1 not in cells:
+                    continue
+                src = {run_of(r, runs_of(res)) for r in mine}
+                body.append([d, m + (f" ({'/'.join(sorted(src))})" if any(src) else "")] +
+                            [f"{cells[t]:.0f} ({cells[1] / cells[t]:.1f}×)" if t in cells else "–" for t in threads])
+                ts = sorted(cells)
+                ax.plot(ts, [cells[1] / cells[t] for t in ts], marker="o", label=m)
+            ax.plot(threads, threads, color="grey", linestyle=":", label="linear")
+            ax.set_xscale("log", base=2)
+            ax.set_yscale("log", base=2)
+            ax.set_xlabel("threads")
+            ax.set_ylabel("speed-up over 1 thread (wall)")
+            ax.set_title(f"Thread scaling, {d}")
+            ax.legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(os.path.join(figs, "thread_scaling.png"), dpi=110)
+        plt.close(fig)
+        md.append(table(["data set", "method"] + [f"{t} thread{'s' if t > 1 else ''}" for t in threads], body))
+        md.append("")
+
+
 def hist_section(res, figs, md):
-    rows = read(os.path.join(res, "walk_hist.csv"))
+    rows = latest(read(os.path.join(res, "walk_hist.csv")), lambda r: (r["dataset"], r["method"]))
     if not rows:
         return
     for d in sorted({r["dataset"] for r in rows}):
@@ -184,17 +288,49 @@ def icp_section(res, figs, md):
         return
     data = dataset_order(rows)
     methods = order({r["method"] for r in rows})
+    run_names = runs_of(res)
+    picked = {}
     for noise in sorted({r["noise"] for r in rows}):
         sel = [r for r in rows if r["noise"] == noise]
-        med = {}
+        # Medians over the rotations that every method of the data set finished (a run stopped at a
+        # deadline may miss a method's last rotations); a method with far fewer rotations than the
+        # others (< 90%) gets the median of its own and is marked with its count.
+        med, common_n = {}, {}
         for d in data:
-            for m in methods:
-                t = [float(r.get("cpu_seconds") or r["align_seconds"]) for r in sel
-                     if r["dataset"] == d and r["method"] == m]
-                if t:
-                    it = [int(r["iterations"]) for r in sel if r["dataset"] == d and r["method"] == m]
-                    err = [float(r["rot_err_deg"]) for r in sel if r["dataset"] == d and r["method"] == m]
-                    med[(d, m)] = (statistics.median(t), statistics.median(it), max(err), len(t))
+            rows_d = [r for r in sel if r["dataset"] == d]
+            if not rows_d:
+                continue
+            # Several runs (runs.txt): the row comes from one run, so that its methods were measured on
+            # one machine at one time.
+            all_methods = {r["method"] for r in rows_d}
+            pick, best = "", None
+            for run in run_names:
+                by = defaultdict(set)
+                for r in rows_d:
+                    if run_of(r, run_names) == run:
+                        by[r["method"]].add(r["rotation"])
+                n = len(set.intersection(*(by[m] for m in all_methods))) if all(by[m] for m in all_methods) else 0
+                if n and (best is None or n >= MIN_ROTATIONS or n > best):
+                    pick, best = run, n
+            if run_names and best:
+                rows_d = [r for r in rows_d if run_of(r, run_names) == pick]
+                picked[(d, noise)] = pick
+            runs = defaultdict(dict)
+            for r in rows_d:
+                runs[r["method"]][r["rotation"]] = r
+            most = max(len(v) for v in runs.values())
+            # Within one picked run every method counts (the medians are over the rotations all of
+            # them finished); otherwise a method far behind the others is shown on its own.
+            full = list(runs) if (d, noise) in picked else [m for m in runs if len(runs[m]) >= 0.9 * most]
+            common = set.intersection(*(set(runs[m]) for m in full))
+            common_n[d] = len(common)
+            for m, by_rot in runs.items():
+                sub = [by_rot[k] for k in (common if m in full else by_rot)]
+                if not sub:
+                    continue
+                t = [float(r.get("cpu_seconds") or r["align_seconds"]) for r in sub]
+                med[(d, m)] = (statistics.median(t), statistics.median(int(r["iterations"]) for r in sub),
+                               max(float(r["rot_err_deg"]) for r in sub), len(sub), m in full)
         label = "noise on the target" if noise == "1" else "no noise"
         md.append(f"### ICP align() CPU time per data set and method ({label}; median over the rotations, "
                   "structure prebuilt)\n")
@@ -204,18 +340,35 @@ def icp_section(res, figs, md):
                 continue
             line = [d]
             for m in methods:
-                line.append(fmt_time(med[(d, m)][0]) if (d, m) in med else "–")
+                if (d, m) not in med:
+                    line.append("–")
+                else:
+                    line.append(fmt_time(med[(d, m)][0]) + ("" if med[(d, m)][4] else f" ({med[(d, m)][3]} rot.)"))
             if (d, "pcl-kdtree") in med and (d, "walk-pnn-optimized") in med:
                 line.append(f"{med[(d, 'pcl-kdtree')][0] / med[(d, 'walk-pnn-optimized')][0]:.1f}×")
             else:
                 line.append("–")
             its = {med[(d, m)][1] for m in methods if (d, m) in med}
             line.append("/".join(str(int(i)) for i in sorted(its)))
-            line.append(str(max(med[(d, m)][3] for m in methods if (d, m) in med)))
+            line.append(str(common_n[d]) + (f" ({picked[(d, noise)]})" if (d, noise) in picked else ""))
             line.append(f"{max(med[(d, m)][2] for m in methods if (d, m) in med):.2g}°")
             body.append(line)
         md.append(table(["data set"] + methods + ["kdtree / PNN-opt", "median iterations", "rotations",
                                                   "max rot. error"], body))
+        md.append("")
+        # The walks' ratios to each peer (ratio of the medians above: > 1 means the walk is faster).
+        peers = [p for p in ["brute-force", "pcl-kdtree", "nanoflann", "pcl-octree"] if p in methods]
+        ours = [w for w in ["walk-pnn", "walk-pnn-optimized", "walk-pnn-optimized-prefetch", "dw-estimator"]
+                if w in methods]
+        body = []
+        for d in data:
+            for w in ours:
+                if (d, w) not in med:
+                    continue
+                body.append([d, w] + [f"{med[(d, p)][0] / med[(d, w)][0]:.1f}×" if (d, p) in med else "–"
+                                      for p in peers])
+        md.append(f"#### Speed-up of the walks over each peer, ICP align() ({label})\n")
+        md.append(table(["data set", "ours"] + ["vs " + p for p in peers], body))
         md.append("")
         # Fig. 11: runtime per data set and method.
         fig, ax = plt.subplots(figsize=(10, 4.5))
@@ -225,7 +378,7 @@ def icp_section(res, figs, md):
             ys = [med[(d, m)][0] for d in data if (d, m) in med]
             ax.bar(xs, ys, width, label=m)
         ax.set_xticks([i + 0.4 - width / 2 for i in range(len(data))])
-        ax.set_xticklabels(data)
+        ax.set_xticklabels(data, fontsize=8, rotation=20, ha="right")
         ax.set_yscale("log")
         ax.set_ylabel("ICP align() CPU seconds (median)")
         ax.set_title(f"ICP runtime per data set and method, {label} (seed Fig. 11)")
@@ -270,7 +423,8 @@ def icp_section(res, figs, md):
                      for i, m in enumerate(present)]))
     md.append("")
     # Fig. 14: per-iteration runtime on the largest data set (scaled like the breakdown).
-    it_rows = [r for r in read(os.path.join(res, "icp_iter.csv")) if r["dataset"] == big and r["noise"] == rows[0]["noise"]]
+    it_rows = latest([r for r in read(os.path.join(res, "icp_iter.csv"))
+                      if r["dataset"] == big and r["noise"] == rows[0]["noise"]], lambda r: r["method"])
     if it_rows:
         rot = it_rows[0]["rotation"]
         scale = {r["method"]: float(r["cpu_seconds"]) / float(r["align_seconds"]) if r.get("cpu_seconds") else 1.0
@@ -317,6 +471,36 @@ def accept_section(res, figs, md):
     md.append("")
 
 
+def scan2scan_section(res, figs, md):
+    rows = read(os.path.join(res, "scan2scan.csv"))
+    if not rows:
+        return
+    v = {r["variant"]: r for r in rows}  # the file that sorts last wins
+    r0 = rows[0]
+    md.append(f"### Scan-to-scan: the LiDAR frame pair, every structure built inside the timing (one thread)\n")
+    md.append(f"Source {int(r0['source_points']):,} → target {int(r0['target_points']):,} points (no-return points "
+              f"removed), max correspondence distance {float(r0['max_distance']):g} m, identity initial guess; "
+              "error against the pair's reference transform.\n")
+    labels = [("stock-icp-kdtree", "stock pcl::IterativeClosestPoint (builds its FLANN KdTree)"),
+              ("icp-nanoflann", "same ICP, nanoflann estimator (bench adaptor), build included"),
+              ("icp-walk-pnn-optimized", "same ICP, core walk PNN-optimized (bench adaptor), graph build included"),
+              ("icp-walk-estimator", "same ICP + CorrespondenceEstimationDelaunayWalk, graph build included")]
+    base = float(v["stock-icp-kdtree"]["cpu_seconds"]) if "stock-icp-kdtree" in v else None
+    body = []
+    for key, label in labels:
+        if key not in v:
+            continue
+        r = v[key]
+        c = float(r["cpu_seconds"])
+        build = "inside align()" if key == "stock-icp-kdtree" else fmt_time(float(r["build_cpu_seconds"]))
+        body.append([label, r["iterations"], fmt_time(c), build,
+                     f"{base / c:.1f}×" if base else "–", f"{float(r['rot_err_deg']):.3f}°",
+                     f"{100 * float(r['trans_err']):.1f} cm"])
+    md.append(table(["variant", "iterations", "CPU incl. build", "of which build", "speed-up", "rot. error",
+                     "trans. error"], body))
+    md.append("")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("results")
@@ -326,12 +510,21 @@ def main():
         sys.exit(f"plot_benchmarks.py: no results folder '{a.results}'")
     os.makedirs(a.figures, exist_ok=True)
     md = []
-    meta = {r["key"]: r["value"] for r in read(os.path.join(a.results, "meta.csv"))}
+    meta = {r["key"]: r["value"] for r in read_one(os.path.join(a.results, "meta.csv"))}
+    machines = sorted(glob.glob(os.path.join(a.results, "**", "machine.txt"), recursive=True))
+    machine = machines[-1] if machines else ""
+    if not meta and machine:  # bench/device_run_grid.sh: lscpu's record of the machine
+        with open(machine) as f:
+            info = dict(l.split(":", 1) for l in f if ":" in l)
+        md.append(f"Machine: {info.get('Model name', '?').strip()}, {info.get('CPU(s)', '?').strip()} CPUs "
+                  f"({info.get('Thread(s) per core', '?').strip()} thread(s) per core); per-job settings in "
+                  "each job folder's meta.csv.\n")
     if meta:
         md.append(f"Machine: {meta.get('cpu', '?')}, {meta.get('hardware_threads', '?')} hardware threads; "
                   f"rotations: {meta.get('rotations', '?')}; max iterations {meta.get('max_iterations', '?')}; "
                   f"repeats {meta.get('repeats', '?')} (minimum taken).\n")
-    for f in (build_section, nn_section, hist_section, icp_section, accept_section):
+    for f in (build_section, nn_section, scaling_section, hist_section, icp_section, accept_section,
+              scan2scan_section):
         f(a.results, a.figures, md)
     with open(os.path.join(a.results, "tables.md"), "w") as f:
         f.write("\n".join(md) + "\n")

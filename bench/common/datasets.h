@@ -27,8 +27,9 @@ struct Dataset {
   std::size_t size() const { return xyz.size() / 3; }
 };
 
-/// Data set names in protocol order (small to large). A ":half" suffix keeps every second point: the
-/// seed's "downsampled by 2" fidelity for sets we have at one resolution only.
+/// Data set names in protocol order (small to large). A ":half" suffix keeps every second point (the
+/// seed's "downsampled by 2" fidelity for sets we have at one resolution only), ":quarter" every
+/// fourth (the half of a ":half" base, where the full set is too big for the rotation grid).
 inline std::vector<std::string> knownDatasets() {
   return {"teapot-792", "dragon-5k", "bunny-8k",    "dragon-23k",
           "bunny-36k",  "lidar-69k", "dragon-100k", "dragon-437k"};
@@ -60,6 +61,20 @@ inline std::string findDataFile(const std::string& subdir, const std::string& fi
   if (!root.empty()) {
     cands.push_back(root + "/../shared/data/" + subdir + "/" + file);
     cands.push_back(root + "/data/" + file);
+  }
+  // __FILE__ is relative when ccache's base_dir rewrote the compile line; the build folder usually
+  // sits in the checkout (<repo>/build-x/apps/dw_bench), so look beside the running executable too.
+  char exe_buf[4096];
+  const ssize_t exe_len = ::readlink("/proc/self/exe", exe_buf, sizeof exe_buf - 1);
+  if (exe_len > 0) {
+    std::string dir(exe_buf, static_cast<std::size_t>(exe_len));
+    for (int up = 0; up < 3 && dir.find_last_of('/') != std::string::npos; ++up) {
+      dir = dir.substr(0, dir.find_last_of('/'));
+      if (up >= 1) {
+        cands.push_back(dir + "/../shared/data/" + subdir + "/" + file);
+        cands.push_back(dir + "/data/" + file);
+      }
+    }
   }
   for (const auto& c : cands)
     if (fileExists(c)) return c;
@@ -113,11 +128,14 @@ inline void appendFinite(std::vector<float>& xyz, double x, double y, double z) 
 /// Loads a data set by protocol name; throws dw::Error for an unknown name or a missing file.
 inline Dataset loadDataset(const std::string& full_name) {
   std::string name = full_name;
-  bool half = false;
-  if (name.size() > 5 && name.compare(name.size() - 5, 5, ":half") == 0) {
-    half = true;
-    name.resize(name.size() - 5);
-  }
+  std::size_t stride = 1;  // keep every stride-th point
+  for (const auto& [suffix, k] : {std::pair<std::string, std::size_t>{":half", 2}, {":quarter", 4}})
+    if (name.size() > suffix.size() &&
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0) {
+      stride = k;
+      name.resize(name.size() - suffix.size());
+      break;
+    }
   struct Entry {
     const char* name;
     const char* subdir;
@@ -135,7 +153,7 @@ inline Dataset loadDataset(const std::string& full_name) {
   if (!e) {
     std::string msg = "dw_bench: unknown data set '" + full_name + "' (known:";
     for (const auto& c : entries) msg += std::string(" ") + c.name;
-    throw dw::Error(msg + "; append :half for every second point)");
+    throw dw::Error(msg + "; append :half or :quarter for every second or fourth point)");
   }
   Dataset d;
   d.name = full_name;
@@ -153,10 +171,11 @@ inline Dataset loadDataset(const std::string& full_name) {
     d.xyz.reserve(raw.size());
     for (std::size_t i = 0; i + 2 < raw.size(); i += 3) appendFinite(d.xyz, raw[i], raw[i + 1], raw[i + 2]);
   }
-  if (half) {
+  if (stride > 1) {
     std::vector<float> kept;
-    kept.reserve(d.xyz.size() / 2 + 3);
-    for (std::size_t i = 0; i < d.size(); i += 2) kept.insert(kept.end(), &d.xyz[3 * i], &d.xyz[3 * i] + 3);
+    kept.reserve(d.xyz.size() / stride + 3);
+    for (std::size_t i = 0; i < d.size(); i += stride)
+      kept.insert(kept.end(), &d.xyz[3 * i], &d.xyz[3 * i] + 3);
     d.xyz.swap(kept);
   }
   if (d.size() == 0) throw dw::Error("dw_bench: data set '" + full_name + "' has no finite points");

@@ -27,6 +27,7 @@
 #include "datasets.h"
 #include "pcl_delaunay_walk/core/graph_builder.h"
 #include "pcl_delaunay_walk/core/neighbour_search.h"
+#include "worker_pool.h"
 
 namespace dwb {
 
@@ -71,13 +72,12 @@ class NnMethod {
     out.resize(n);
     threads = std::max(1u, std::min<unsigned>(threads, static_cast<unsigned>(n / 1024 + 1)));
     if (threads == 1) return nearestRange(queries, 0, n, out);
-    std::vector<std::thread> pool;
+    // Contiguous chunks: each thread keeps its own run of source points, as a parallel ICP would.
     const std::size_t chunk = (n + threads - 1) / threads;
-    for (unsigned t = 0; t < threads; ++t) {
+    WorkerPool::instance().run(threads, [&](unsigned t) {
       const std::size_t b = t * chunk, e = std::min(n, b + chunk);
-      if (b < e) pool.emplace_back([=, &out] { nearestRange(queries, b, e, out); });
-    }
-    for (auto& th : pool) th.join();
+      if (b < e) nearestRange(queries, b, e, out);
+    });
   }
   /// Whether the method reports walk steps.
   virtual bool isWalk() const { return false; }

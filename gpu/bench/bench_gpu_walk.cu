@@ -172,13 +172,15 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
 
   std::printf("| %-58s | %12s | note\n", "what (exact 1-NN unless said)", "median us");
   std::printf("|%s|%s|-----\n", std::string(60, '-').c_str(), std::string(14, '-').c_str());
+  // Layouts: 0 = neighbour indices (gather positions), 1 = inline neighbour positions.
+  const char* layout_name[2] = {"index", "inline positions"};
   double best = 1e30;
-  int best_lanes = 8;
-  bool best_inline = false;
-  for (bool inl : {false, true}) {
-    walk.setInlineNeighbourPositions(inl);
+  int best_lanes = 8, best_layout = 0;
+  auto setLayout = [&](int layout) { walk.setInlineNeighbourPositions(layout == 1); };
+  for (int layout : {0, 1}) {
+    setLayout(layout);
     for (int lanes : {1, 2, 4, 8, 16, 32}) {
-      if (inl && (lanes == 1 || lanes == 32)) continue;
+      if (layout == 1 && (lanes == 1 || lanes == 32)) continue;
       walk.setGroupSize(lanes);
       const double t = timeGpu([&] { walk.nearest(dq.ptr(), n, hints.ptr(), verts.ptr(), d2.ptr()); });
       walk.nearest(dq.ptr(), n, hints.ptr(), verts.ptr(), d2.ptr(), steps.ptr());
@@ -186,19 +188,39 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
       char note[128];
       std::snprintf(note, sizeof note, "mean steps %.2f, %s", meanSteps(),
                     bad ? "MISMATCH" : "== brute force");
-      row(std::string("GPU walk, PNN hints, ") + std::to_string(lanes) + " lane(s)/query" +
-              (inl ? ", inline positions" : ""),
+      row(std::string("GPU walk, PNN hints, ") + std::to_string(lanes) + " lane(s)/query, " +
+              layout_name[layout],
           t, note);
       if (t < best) {
         best = t;
         best_lanes = lanes;
-        best_inline = inl;
+        best_layout = layout;
       }
     }
   }
-  walk.setInlineNeighbourPositions(best_inline);
-  std::printf("best: %d lanes, %s layout\n", best_lanes, best_inline ? "inline-position" : "index");
+  setLayout(best_layout);
+  std::printf("best: %d lanes, %s layout\n", best_lanes, layout_name[best_layout]);
   walk.setGroupSize(best_lanes);
+  {  // what the safe-ball test saves (same configuration, test off)
+    walk.setSafeBallTest(false);
+    const double t = timeGpu([&] { walk.nearest(dq.ptr(), n, hints.ptr(), verts.ptr(), d2.ptr()); });
+    walk.nearest(dq.ptr(), n, hints.ptr(), verts.ptr(), d2.ptr(), steps.ptr());
+    char note[128];
+    std::snprintf(note, sizeof note, "mean steps %.2f, %s", meanSteps(),
+                  check("PNN walk, no safe ball") ? "MISMATCH" : "== brute force");
+    row("GPU walk, PNN hints, best, safe-ball test off", t, note);
+    walk.setSafeBallTest(true);
+  }
+  {
+    DelaunayWalk fresh(graph);  // the defaults a user gets
+    const double t = timeGpu([&] { fresh.nearest(dq.ptr(), n, hints.ptr(), verts.ptr(), d2.ptr()); });
+    fresh.nearest(dq.ptr(), n, hints.ptr(), verts.ptr(), d2.ptr());
+    char note[128];
+    std::snprintf(note, sizeof note, "%s", check("default walk") ? "MISMATCH" : "== brute force");
+    row("GPU walk, PNN hints, DEFAULT settings (" + std::to_string(fresh.groupSize()) + " lanes, " +
+            (fresh.inlineNeighbourPositions() ? "inline positions" : "index") + ")",
+        t, note);
+  }
   {
     const double t = timeGpu([&] { walk.nearest(dq.ptr(), n, nullptr, verts.ptr(), d2.ptr()); });
     walk.nearest(dq.ptr(), n, nullptr, verts.ptr(), d2.ptr(), steps.ptr());
@@ -290,7 +312,7 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
     p.euclidean_fitness_epsilon = 1e-6;
     auto target = std::make_shared<DelaunayWalk>(graph);
     target->setGroupSize(best_lanes);  // the ICP walk uses the target's tile width and layout
-    target->setInlineNeighbourPositions(best_inline);
+    target->setInlineNeighbourPositions(best_layout == 1);
     pcl::gpu::IterativeClosestPoint icp(target);
     icp.setParameters(p);
     std::vector<double> src(xyz.size());

@@ -24,12 +24,16 @@ void checkLaunch(const char* what) {
   checkCuda(cudaGetLastError(), what);
 }
 
+// The walk kernels use 44 registers: 128-thread blocks fit 11 per SM (44 warps) where 256-thread ones
+// fit 5 (40 warps), and resident walks are what hide the gathers' latency.
+constexpr int kWalkBlock = 128;
+
 template <int G>
-__global__ void __launch_bounds__(kBlock)
+__global__ void __launch_bounds__(kWalkBlock)
     nearestKernel(DeviceGraphView g, const float4* __restrict__ queries, std::uint32_t n,
                   const std::uint32_t* __restrict__ hints, std::uint32_t* __restrict__ vertices,
                   float* __restrict__ dist2, std::uint32_t* __restrict__ steps) {
-  const std::size_t qi = (std::size_t(blockIdx.x) * kBlock + threadIdx.x) / G;
+  const std::size_t qi = (std::size_t(blockIdx.x) * kWalkBlock + threadIdx.x) / G;
   if (qi >= n) return;  // a whole tile leaves together: its lanes share qi
   const float4 q = queries[qi];
   std::uint32_t v = kInvalid, s = 0;
@@ -205,8 +209,8 @@ __global__ void mapKernel(const std::uint32_t* __restrict__ table, std::uint32_t
 template <int G>
 void launchNearest(const DeviceGraphView& g, const float4* q, std::size_t n, const std::uint32_t* hints,
                    std::uint32_t* vertices, float* dist2, std::uint32_t* steps, cudaStream_t stream) {
-  nearestKernel<G>
-      <<<blocksFor(n * G), kBlock, 0, stream>>>(g, q, std::uint32_t(n), hints, vertices, dist2, steps);
+  nearestKernel<G><<<unsigned((n * G + kWalkBlock - 1) / kWalkBlock), kWalkBlock, 0, stream>>>(
+      g, q, std::uint32_t(n), hints, vertices, dist2, steps);
 }
 
 }  // namespace
@@ -222,14 +226,34 @@ void DelaunayWalk::setGraph(const dw::DelaunayGraph& graph, double cells_per_ver
   if (!(cells_per_vertex > 0.0) || !std::isfinite(cells_per_vertex))
     throw dw::Error("pcl::gpu::DelaunayWalk: cells_per_vertex must be positive and finite");
 
-  std::vector<float4> pts(nv);
-  for (std::size_t v = 0; v < nv; ++v)
-    pts[v] = make_float4(graph.points[v].x, graph.points[v].y, graph.points[v].z, 0.f);
   std::vector<std::uint32_t> nbr(graph.edges.size());
   for (std::size_t e = 0; e < nbr.size(); ++e) {
     nbr[e] = graph.edges[e].j;
     if (nbr[e] >= nv)
       throw dw::Error("pcl::gpu::DelaunayWalk: edge " + std::to_string(e) + " points past the vertices");
+  }
+  // w = the safe-ball radius^2 of the walk (walk_device.cuh): a quarter of the squared distance to the
+  // nearest neighbour, from the float vertices in double (not from the edge records' rounded m), shrunk
+  // by 1e-5, far more than the float rounding of w and of the walk's float distance (3e-7). Balls too
+  // small for float precision stay 0, which disables the test (it is strict).
+  // Also checked here: whether every neighbourhood is shortest edge first (the core's order, up to the
+  // float rounding of m), which the walk's early stop relies on; a graph not in that order still
+  // walks exactly, only without the early stop.
+  std::vector<float4> pts(nv);
+  bool shortest_first = true;
+  for (std::size_t v = 0; v < nv; ++v) {
+    const dw::Vec3f& x = graph.points[v];
+    double nn2 = INFINITY, prev2 = 0.0;
+    for (std::uint32_t e = graph.offsets[v]; e < graph.offsets[v + 1]; ++e) {
+      const dw::Vec3f& y = graph.points[nbr[e]];
+      const double dx = double(y.x) - x.x, dy = double(y.y) - x.y, dz = double(y.z) - x.z;
+      const double len2 = dx * dx + dy * dy + dz * dz;
+      nn2 = std::min(nn2, len2);
+      if (len2 < prev2 * (1.0 - 1e-5)) shortest_first = false;
+      prev2 = len2;
+    }
+    const double r2 = 0.25 * nn2 * (1.0 - 1e-5);
+    pts[v] = make_float4(x.x, x.y, x.z, std::isfinite(r2) && r2 >= 1e-30 ? float(r2) : 0.f);
   }
   vertex_to_input_.resize(nv);
   for (std::size_t v = 0; v < nv; ++v) {
@@ -248,7 +272,8 @@ void DelaunayWalk::setGraph(const dw::DelaunayGraph& graph, double cells_per_ver
   origin_ = graph.origin;
   num_inputs_ = graph.numInputPoints();
 
-  const bool inline_positions = view_.edge_points != nullptr;
+  const bool inline_positions = auto_inline_ ? defaultInlineNeighbourPositions(nbr.size())
+                                             : view_.edge_points != nullptr;  // a chosen layout stays
   view_ = DeviceGraphView{};
   view_.points = points_.ptr();
   view_.offsets = offsets_.ptr();
@@ -256,11 +281,13 @@ void DelaunayWalk::setGraph(const dw::DelaunayGraph& graph, double cells_per_ver
   view_.originals_offsets = originals_offsets_.ptr();
   view_.originals = originals_.ptr();
   view_.num_vertices = std::uint32_t(nv);
+  view_.shortest_first = shortest_first;
   grid_seeds_.release();
   if (auto_group_size_) group_size_ = defaultGroupSize(nv);
   if (nv > 1) buildStartGrid(graph, cells_per_vertex);
   checkCuda(cudaDeviceSynchronize(), "DelaunayWalk::setGraph");
-  setInlineNeighbourPositions(inline_positions);  // a new graph keeps the chosen layout
+  applyInlineNeighbourPositions(inline_positions);
+  setSafeBallTest(safe_ball_);
 }
 
 void DelaunayWalk::buildStartGrid(const dw::DelaunayGraph& graph, double cells_per_vertex) {
@@ -320,13 +347,29 @@ void DelaunayWalk::buildStartGrid(const dw::DelaunayGraph& graph, double cells_p
   view_.grid_seeds = grid_seeds_.ptr();
 }
 
-int DelaunayWalk::defaultGroupSize(std::size_t num_vertices) {
-  // Measured on the H100 (docs/gpu.md): 8 lanes were fastest on the 100k dragon, 4 on the 437k one,
-  // where more walks in flight per warp hide more of the misses of a graph larger than L2 likes.
-  return num_vertices < 200000 ? 8 : 4;
+int DelaunayWalk::defaultGroupSize(std::size_t /*num_vertices*/) {
+  // Measured on the H100 with the float-first walk and 128-thread blocks (docs/gpu.md): 4 lanes were
+  // fastest on both the 100k and the 437k dragon, in both layouts (8 lanes: +6 % / +30 %).
+  return 4;
+}
+
+bool DelaunayWalk::defaultInlineNeighbourPositions(std::size_t num_directed_edges) {
+  // Inline positions (16 bytes per edge) paid on the 100k dragon (26 MB: 20.9 vs 23.1 us at 4 lanes)
+  // and not on the 437k one (115 MB, past the H100's 50 MB L2: 81.8 vs 80.5 us), docs/gpu.md.
+  return num_directed_edges * sizeof(float4) <= (std::size_t(32) << 20);
+}
+
+void DelaunayWalk::setSafeBallTest(bool on) {
+  safe_ball_ = on;
+  view_.safe_ball = on && view_.num_vertices != 0;
 }
 
 void DelaunayWalk::setInlineNeighbourPositions(bool on) {
+  auto_inline_ = false;
+  applyInlineNeighbourPositions(on);
+}
+
+void DelaunayWalk::applyInlineNeighbourPositions(bool on) {
   if (!on) {
     edge_points_.release();
     view_.edge_points = nullptr;
@@ -336,8 +379,8 @@ void DelaunayWalk::setInlineNeighbourPositions(bool on) {
   edge_points_.create(m);
   if (m) {
     edgePointsKernel<<<blocksFor(m), kBlock>>>(points_.ptr(), neighbours_.ptr(), m, edge_points_.ptr());
-    checkLaunch("DelaunayWalk::setInlineNeighbourPositions");
-    checkCuda(cudaDeviceSynchronize(), "DelaunayWalk::setInlineNeighbourPositions");
+    checkLaunch("DelaunayWalk: inline neighbour positions");
+    checkCuda(cudaDeviceSynchronize(), "DelaunayWalk: inline neighbour positions");
   }
   view_.edge_points = m ? edge_points_.ptr() : nullptr;
 }

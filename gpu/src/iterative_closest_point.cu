@@ -34,7 +34,7 @@ struct SourceState {
 struct SolveParams {
   double max_dist2, rotation_threshold, translation_threshold, relative_mse, absolute_mse;
   double origin[3];
-  int max_iterations, max_similar, failure_after_max;
+  int max_iterations, max_similar, failure_after_max, float_criteria;
   unsigned min_correspondences;
 };
 
@@ -97,8 +97,14 @@ __device__ void solveStep(SourceState& st, const double* acc, const SolveParams&
     }
     st.state = int(ConvergenceState::FailureAfterMaxIterations);
   }
-  const double cos_angle = 0.5 * (rs[0] + rs[4] + rs[8] - 1.0);
-  const double translation_sqr = tw[0] * tw[0] + tw[1] * tw[1] + tw[2] * tw[2];
+  double cos_angle = 0.5 * (rs[0] + rs[4] + rs[8] - 1.0);
+  double translation_sqr = tw[0] * tw[0] + tw[1] * tw[1] + tw[2] * tw[2];
+  if (prm.float_criteria) {  // PCL's expressions on its float Matrix4, in float (no FMA contraction)
+    const float trace = __fsub_rn(__fadd_rn(__fadd_rn(float(rs[0]), float(rs[4])), float(rs[8])), 1.f);
+    const float t0 = float(tw[0]), t1 = float(tw[1]), t2 = float(tw[2]);
+    cos_angle = 0.5 * double(trace);
+    translation_sqr = __fadd_rn(__fadd_rn(__fmul_rn(t0, t0), __fmul_rn(t1, t1)), __fmul_rn(t2, t2));
+  }
   if (cos_angle >= prm.rotation_threshold && translation_sqr <= prm.translation_threshold) {
     if (st.similar >= prm.max_similar) {
       finish(st, int(ConvergenceState::Transform), done_count, done_host);
@@ -138,13 +144,15 @@ __device__ void solveStep(SourceState& st, const double* acc, const SolveParams&
 /// as many walks are in flight as there: the reduction lives in the next kernel, because fused here it
 /// raised the registers and cut the walks in flight ~3x (measured 75 us per iteration instead of ~25
 /// on the 100k dragon, docs/gpu.md).
+constexpr int kWalkBlock = 128;  // as DelaunayWalk::nearest: 44 registers fit 11 such blocks per SM
+
 template <int G>
-__global__ void __launch_bounds__(kBlock)
+__global__ void __launch_bounds__(kWalkBlock)
     correspondKernel(DeviceGraphView g, const float4* __restrict__ pts,
                      const std::uint32_t* __restrict__ point_source, std::uint32_t n,
                      const SourceState* __restrict__ states, double max_dist2,
                      std::uint32_t* __restrict__ hints, float* __restrict__ corr_d2) {
-  const std::size_t i = (std::size_t(blockIdx.x) * kBlock + threadIdx.x) / G;
+  const std::size_t i = (std::size_t(blockIdx.x) * kWalkBlock + threadIdx.x) / G;
   if (i >= n) return;  // tile-uniform: its lanes share i
   const SourceState& st = states[point_source[i]];
   if (st.done) return;
@@ -164,7 +172,8 @@ __global__ void __launch_bounds__(kBlock)
       v = detail::walkTile<G>(cg::tiled_partition<G>(cg::this_thread_block()), g, qx, qy, qz, start, d2,
                               steps);
     }
-    if (d2 <= max_dist2) out = float(d2);  // PCL: rejected when distance > max_distance^2
+    // PCL rejects on the float distance its search returns (distance > max_distance^2 in double).
+    if (double(float(d2)) <= max_dist2) out = float(d2);
   }
   if (G == 1 || threadIdx.x % G == 0) {
     hints[i] = v;
@@ -266,9 +275,9 @@ template <int G>
 void launchCorrespond(const DeviceGraphView& g, const float4* pts, const std::uint32_t* point_source,
                       std::size_t n, const SourceState* states, double max_dist2, std::uint32_t* hints,
                       float* corr_d2, cudaStream_t stream) {
-  const auto blocks = unsigned((n * G + kBlock - 1) / kBlock);
-  correspondKernel<G><<<blocks, kBlock, 0, stream>>>(g, pts, point_source, std::uint32_t(n), states,
-                                                     max_dist2, hints, corr_d2);
+  const auto blocks = unsigned((n * G + kWalkBlock - 1) / kWalkBlock);
+  correspondKernel<G><<<blocks, kWalkBlock, 0, stream>>>(g, pts, point_source, std::uint32_t(n), states,
+                                                         max_dist2, hints, corr_d2);
 }
 
 /// The step of every source still running, one thread each. Kept out of the walk kernel: the 4x4
@@ -480,6 +489,7 @@ std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4
   prm.max_iterations = params_.max_iterations;
   prm.max_similar = params_.max_iterations_similar_transforms;
   prm.failure_after_max = params_.failure_after_max_iterations ? 1 : 0;
+  prm.float_criteria = params_.float_transform_criteria ? 1 : 0;
   prm.min_correspondences = params_.min_number_correspondences;
 
   auto* state_ptr = reinterpret_cast<SourceState*>(states_.ptr());

@@ -90,8 +90,15 @@ inline ReferenceIcpResult referenceIcp(const dw::NeighbourSearch& target,
       }
       r.state = ConvergenceState::FailureAfterMaxIterations;
     }
-    const double cos_angle = 0.5 * (step(0, 0) + step(1, 1) + step(2, 2) - 1.0);
-    const double tsq = step.topRightCorner<3, 1>().squaredNorm();
+    double cos_angle = 0.5 * (step(0, 0) + step(1, 1) + step(2, 2) - 1.0);
+    double tsq = step.topRightCorner<3, 1>().squaredNorm();
+    if (p.float_transform_criteria) {  // PCL's expressions on its float Matrix4, evaluated in float
+      const Eigen::Matrix4f sf = step.cast<float>();
+      const float trace = sf(0, 0) + sf(1, 1) + sf(2, 2) - 1.f;
+      const float t2 = sf(0, 3) * sf(0, 3) + sf(1, 3) * sf(1, 3) + sf(2, 3) * sf(2, 3);
+      cos_angle = 0.5 * trace;
+      tsq = t2;
+    }
     if (cos_angle >= rot_th && tsq <= p.transformation_epsilon) {
       if (similar >= p.max_iterations_similar_transforms) {
         r.state = ConvergenceState::Transform;

@@ -109,6 +109,8 @@ TEST_F(GpuWalk, NearestEqualsBruteForceForEveryGroupSizeAndStart) {
   auto q = randomQueries(6000, 11, -1.5f, 1.5f);
   const auto far = randomQueries(500, 12, -1000.f, 1000.f);
   q.insert(q.end(), far.begin(), far.end());
+  const auto very_far = randomQueries(50, 13, -1e9f, 1e9f);  // float distances of vertices tie
+  q.insert(q.end(), very_far.begin(), very_far.end());
   const auto ref = hostMinDist2(g, q);
 
   // GPU brute force agrees with the host bit for bit.
@@ -128,12 +130,56 @@ TEST_F(GpuWalk, NearestEqualsBruteForceForEveryGroupSizeAndStart) {
   for (auto& h : random_hints) h = hr() % std::uint32_t(g.numVertices());
   for (bool inline_positions : {false, true}) {
     w.setInlineNeighbourPositions(inline_positions);
+    ASSERT_EQ(w.inlineNeighbourPositions(), inline_positions);
     for (int lanes : {1, 2, 4, 8, 16, 32}) {
       w.setGroupSize(lanes);
       expectExact(g, q, runNearest(w, q, nullptr), ref, "grid start");
       expectExact(g, q, runNearest(w, q, &random_hints), ref, "random hints");
     }
   }
+}
+
+TEST_F(GpuWalk, SafeBallAndNearTiesStayExact) {
+  const auto g = buildGraph(dwgpu_test::randomCloud(4000, 31));
+  DelaunayWalk w(g);
+  ASSERT_TRUE(w.safeBallTest());
+  std::vector<float4> q;
+  std::vector<std::uint32_t> hints;
+  std::mt19937 rng(32);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  for (std::uint32_t v = 0; v < g.numVertices(); v += 2) {
+    const auto& p = g.points[v];
+    float nn2 = INFINITY;  // nearest neighbour distance^2 of v (a Delaunay neighbour)
+    for (auto e = g.offsets[v]; e < g.offsets[v + 1]; ++e) {
+      const auto& o = g.points[g.edges[e].j];
+      nn2 = std::min(nn2, (o.x - p.x) * (o.x - p.x) + (o.y - p.y) * (o.y - p.y) + (o.z - p.z) * (o.z - p.z));
+    }
+    const float s = 0.2f * std::sqrt(nn2);  // well inside the safe ball (radius 0.5 sqrt(nn2))
+    q.push_back(float4{p.x + s * u(rng) * 0.5f, p.y + s * u(rng) * 0.5f, p.z + s * u(rng) * 0.5f, 0.f});
+    hints.push_back(v);
+    // The midpoint of an edge: two vertices (near-)tie, the float comparison cannot decide and the
+    // walk must settle it in double.
+    const auto& o = g.points[g.edges[g.offsets[v]].j];
+    q.push_back(float4{0.5f * (p.x + o.x), 0.5f * (p.y + o.y), 0.5f * (p.z + o.z), 0.f});
+    hints.push_back(v);
+  }
+  const auto ref = hostMinDist2(g, q);
+  for (int lanes : {1, 4, 8}) {
+    w.setGroupSize(lanes);
+    w.setSafeBallTest(true);
+    const NnOut on = runNearest(w, q, &hints);
+    expectExact(g, q, on, ref, "safe ball on");
+    for (std::size_t i = 0; i < q.size(); i += 2) {  // inside the ball of the hint: no step, no scan
+      EXPECT_EQ(on.v[i], hints[i]);
+      EXPECT_EQ(on.steps[i], 0u);
+    }
+    w.setSafeBallTest(false);
+    const NnOut off = runNearest(w, q, &hints);
+    expectExact(g, q, off, ref, "safe ball off");
+    EXPECT_EQ(on.v, off.v);
+    EXPECT_EQ(on.d2, off.d2);
+  }
+  w.setSafeBallTest(true);
 }
 
 TEST_F(GpuWalk, HintsOutOfRangeFallBackAndPerfectHintsTakeNoStep) {
@@ -199,10 +245,12 @@ TEST_F(GpuWalk, CoplanarCollinearAndDuplicatePoints) {
     DelaunayWalk w(g);
     const auto q = randomQueries(3000, 77, -12.f, 12.f);
     const auto ref = hostMinDist2(g, q);
-    for (int lanes : {1, 8}) {
-      w.setGroupSize(lanes);
-      expectExact(g, q, runNearest(w, q, nullptr), ref, "degenerate set");
-    }
+    for (bool inline_positions : {false, true})
+      for (int lanes : {1, 8}) {
+        w.setInlineNeighbourPositions(inline_positions);
+        w.setGroupSize(lanes);
+        expectExact(g, q, runNearest(w, q, nullptr), ref, "degenerate set");
+      }
   }
 }
 

@@ -1,6 +1,6 @@
 /// \file distributed_tin.cpp
-/// \brief The MPI driver: byte-range LAS read, sampled slab splitters, all-to-all redistribution, leaf
-/// triangulation, and the pairwise merge tree over ranks.
+/// \brief The MPI driver: range read of one LAS file or a pre-split set, sampled slab splitters, all-to-all
+/// redistribution, leaf triangulation, and the pairwise merge tree over ranks.
 #include "pcl_delaunay_walk/mpi/distributed_tin.h"
 
 #include <algorithm>
@@ -92,45 +92,28 @@ RankTin triangulateDistributed(MPI_Comm comm, const DistributedTinOptions& optio
     if (me == 0 && options.progress) options.progress(s);
   };
 
-  // 1. Read this rank's contiguous share of the records.
+  // 1. Read this rank's contiguous share of the records (of one file or of a pre-split set).
   auto t0 = std::chrono::steady_clock::now();
-  las::LasReader reader(options.input);
-  const las::LasHeader& h = reader.header();
-  const std::uint64_t n_rec =
-      options.max_records ? std::min<std::uint64_t>(options.max_records, h.point_count) : h.point_count;
+  const LasInputSet input(options.inputs, options.max_records);
+  const std::string name =
+      input.paths().size() == 1 ? input.paths()[0] : std::to_string(input.paths().size()) + " input files";
+  const std::uint64_t n_rec = input.size();
   const std::uint64_t first = n_rec * me / P, last = n_rec * (me + 1) / P;
-  const bool same_scale = h.scale[0] == h.scale[1];
-  for (int k = 0; k < 2; ++k) {  // frame = LAS integers when the scales agree (as dw_tin does)
-    t.frame.scale[k] = same_scale ? h.scale[k] : 1.0;
-    t.frame.offset[k] = h.offset[k];
-  }
+  t.frame = input.frame();
   std::vector<PointRecord> mine;
   mine.reserve(last - first);
-  {
-    reader.seek(first);
-    std::vector<las::LasRecord> buf;
-    std::uint64_t left = last - first;
-    while (left > 0) {
-      const std::size_t got =
-          reader.read(buf, static_cast<std::size_t>(std::min<std::uint64_t>(left, 1 << 16)));
-      if (got == 0) throw Error(options.input + ": unexpected end of point records");
-      for (std::size_t i = 0; i < got; ++i) {
-        const las::LasRecord& r = buf[i];
-        if (options.classification >= 0 && r.classification != options.classification) continue;
-        mine.push_back({same_scale ? double(r.X) : r.X * h.scale[0],
-                        same_scale ? double(r.Y) : r.Y * h.scale[1], r.Z * h.scale[2] + h.offset[2], 0});
-      }
-      left -= got;
-    }
-  }
+  input.forEach(first, last, [&](const las::LasRecord& r, double x, double y, double z) {
+    if (options.classification >= 0 && r.classification != options.classification) return;
+    mine.push_back({x, y, z, 0});
+  });
   // Global indices count kept records in file order, exactly as the single-process reader does.
   std::uint64_t kept = mine.size(), base = 0, total = 0;
   MPI_Exscan(&kept, &base, 1, MPI_UINT64_T, MPI_SUM, comm);
   if (me == 0) base = 0;
   MPI_Allreduce(&kept, &total, 1, MPI_UINT64_T, MPI_SUM, comm);
   t.total_points = total;
-  if (total == 0) throw Error(options.input + ": no points to triangulate");
-  if (total >= 0xffffffffull) throw Error(options.input + ": too many points for 32-bit global indices");
+  if (total == 0) throw Error(name + ": no points to triangulate");
+  if (total >= 0xffffffffull) throw Error(name + ": too many points for 32-bit global indices");
   for (std::size_t i = 0; i < mine.size(); ++i) mine[i].gid = base + i;
   t.timings.read_s = since(t0);
   progress("read " + std::to_string(total) + " points on " + std::to_string(P) + " ranks");

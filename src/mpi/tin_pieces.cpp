@@ -118,8 +118,10 @@ void writePiecesAndManifest(MPI_Comm comm, const std::string& prefix, const Rank
   if (t.rank != 0) return;
   std::uint64_t tris = 0;
   std::ostringstream js;
-  js << "{\n  \"format\": \"dw_tin_mpi pieces 1\",\n  \"input\": " << jsonString(options.input)
-     << ",\n  \"ranks\": " << t.size << ",\n  \"points\": " << t.total_points << ",\n  \"pieces\": [\n";
+  js << "{\n  \"format\": \"dw_tin_mpi pieces 2\",\n  \"inputs\": [";
+  for (std::size_t f = 0; f < options.inputs.size(); ++f)
+    js << (f ? ", " : "") << jsonString(options.inputs[f]);
+  js << "],\n  \"ranks\": " << t.size << ",\n  \"points\": " << t.total_points << ",\n  \"pieces\": [\n";
   for (int r = 0; r < t.size; ++r) {
     std::string name = piece_name.substr(0, piece_name.rfind(".rank")) + ".rank" + std::to_string(r) + ".ply";
     js << "    {\"file\": " << jsonString(name) << ", \"vertices\": " << all[2 * r]

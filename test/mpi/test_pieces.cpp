@@ -14,6 +14,7 @@
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/mpi/distributed_tin.h"
+#include "pcl_delaunay_walk/mpi/las_input_set.h"
 
 namespace {
 
@@ -33,6 +34,21 @@ std::vector<std::string> stringValues(const std::string& js, const std::string& 
   for (std::size_t at = js.find(pat); at != std::string::npos; at = js.find(pat, at + 1)) {
     const std::size_t b = at + pat.size(), e = js.find('"', b);
     out.push_back(js.substr(b, e - b));
+  }
+  return out;
+}
+
+/// The strings of a `"key": ["a", "b"]` list in a small JSON text.
+std::vector<std::string> listValues(const std::string& js, const std::string& key) {
+  std::vector<std::string> out;
+  const std::string pat = "\"" + key + "\": [";
+  const std::size_t at = js.find(pat);
+  if (at == std::string::npos) return out;
+  const std::size_t end = js.find(']', at);
+  for (std::size_t b = js.find('"', at + pat.size()); b < end; b = js.find('"', b + 1)) {
+    const std::size_t e = js.find('"', b + 1);
+    out.push_back(js.substr(b + 1, e - b - 1));
+    b = e;
   }
   return out;
 }
@@ -90,33 +106,34 @@ TEST(Pieces, ManifestPiecesEqualSingleProcessTin) {
   ASSERT_TRUE(mf.good()) << manifest;
   const std::string js((std::istreambuf_iterator<char>(mf)), std::istreambuf_iterator<char>());
   ASSERT_NE(js.find("\"complete\": true"), std::string::npos);
-  const std::vector<std::string> input = stringValues(js, "input");
+  const std::vector<std::string> inputs = listValues(js, "inputs");
   const std::vector<std::string> files = stringValues(js, "file");
-  ASSERT_EQ(input.size(), 1u);
+  ASSERT_FALSE(inputs.empty());
   ASSERT_FALSE(files.empty());
   const std::string dir = manifest.substr(0, manifest.find_last_of('/') + 1);
 
-  const dw::las::LasCloud las = dw::las::readLasFile(input[0]);
+  // The input's points in the shared frame (las_input_set.h), and in world coordinates.
+  const dw::mpi::LasInputSet input(inputs);
+  const dw::mpi::Frame& fr = input.frame();
+  std::vector<double> x, y;
+  std::vector<std::array<double, 3>> world;
+  input.forEach(0, input.size(), [&](const dw::las::LasRecord&, double px, double py, double pz) {
+    x.push_back(px);
+    y.push_back(py);
+    world.push_back({px * fr.scale[0] + fr.offset[0], py * fr.scale[1] + fr.offset[1], pz});
+  });
   std::vector<Tri> got;
   for (const std::string& f : files) {
     const Piece p = readPiece(dir + f);
     for (std::size_t i = 0; i < p.gid.size(); ++i) {
-      ASSERT_LT(p.gid[i], las.size());
-      EXPECT_EQ(p.xyz[i][0], las.x(p.gid[i]));
-      EXPECT_EQ(p.xyz[i][1], las.y(p.gid[i]));
-      EXPECT_EQ(p.xyz[i][2], las.z(p.gid[i]));
+      ASSERT_LT(p.gid[i], world.size());
+      EXPECT_EQ(p.xyz[i], world[p.gid[i]]);
     }
     got.insert(got.end(), p.faces.begin(), p.faces.end());
   }
   std::sort(got.begin(), got.end());
   EXPECT_EQ(std::adjacent_find(got.begin(), got.end()), got.end()) << "a triangle is in two pieces";
 
-  const bool same = las.header.scale[0] == las.header.scale[1];
-  std::vector<double> x(las.size()), y(las.size());
-  for (std::size_t i = 0; i < las.size(); ++i) {
-    x[i] = same ? double(las.X[i]) : las.X[i] * las.header.scale[0];
-    y[i] = same ? double(las.Y[i]) : las.Y[i] * las.header.scale[1];
-  }
   const dw::tin::TinResult ref = dw::tin::triangulate(std::move(x), std::move(y));
   std::vector<Tri> want;
   for (std::size_t t = 0; t < ref.numTriangles(); ++t)

@@ -1,9 +1,10 @@
 /// \file distributed_tin.h
-/// \brief MPI driver of the distributed 2D Delaunay TIN: every rank reads its own byte range of a LAS
-/// file, points are redistributed into equal-count slabs along the long axis (sampled splitters,
-/// MPI_Alltoallv), each rank triangulates its slab and emits what is provably final, and the rest is
-/// merged up a log-depth tree of rank pairs (slab_group.h). The union of all ranks' emitted triangles is
-/// exactly the single-process dw::tin::triangulate result on the same input (docs/mpi.md).
+/// \brief MPI driver of the distributed 2D Delaunay TIN: every rank reads its own range of the records of
+/// a LAS file or of a pre-split set of LAS files (las_input_set.h), points are redistributed into equal-count
+/// slabs along the long axis (sampled splitters, MPI_Alltoallv), each rank triangulates its slab and emits
+/// what is provably final, and the rest is merged up a log-depth tree of rank pairs (slab_group.h). The union
+/// of all ranks' emitted triangles is exactly the single-process dw::tin::triangulate result on the same
+/// input (docs/mpi.md).
 #pragma once
 
 #include <mpi.h>
@@ -12,13 +13,16 @@
 #include <string>
 #include <vector>
 
+#include "pcl_delaunay_walk/mpi/las_input_set.h"
 #include "pcl_delaunay_walk/mpi/slab_group.h"
 
 namespace dw {
 namespace mpi {
 
 struct DistributedTinOptions {
-  std::string input;              ///< LAS file (uncompressed), read by all ranks in byte ranges
+  /// LAS files (uncompressed): one file or a pre-split set, taken as one sequence of records in this
+  /// order; every rank reads only its own range of that sequence.
+  std::vector<std::string> inputs;
   int classification = -1;        ///< keep only this class; -1: all (global indices count kept points)
   unsigned num_threads = 1;       ///< threads per rank for the local triangulations
   std::uint64_t max_records = 0;  ///< use only the first max_records records (0: all); for weak scaling
@@ -29,11 +33,6 @@ struct DistributedTinOptions {
   std::string fault_stage;
   int fault_rank = -1;
   bool fault_kill = false;
-};
-
-/// World coordinates of the triangulation frame: world = frame * scale + offset per axis.
-struct Frame {
-  double scale[2] = {1, 1}, offset[2] = {0, 0};
 };
 
 struct RankTimings {

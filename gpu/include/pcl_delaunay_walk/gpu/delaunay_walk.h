@@ -2,12 +2,14 @@
 /// \brief pcl::gpu::DelaunayWalk: exact batch nearest-neighbour, kNN and radius search on the GPU by the
 /// Delaunay walk (Anderson et al. 2022), over a graph built on the host by the core (dw::DelaunayGraph).
 ///
-/// Device layout (built from the core's CSR on upload): vertices as float4 (16-byte loads, 7 MB for the
-/// 437k dragon, so the whole vertex set stays in the H100's 50 MB L2) and, per directed edge, only the
-/// neighbour index j (4 bytes instead of the core's 20-byte record). The walk compares squared distances
-/// |q - x_j|^2 < |q - x_i|^2 directly (in double, from the float coordinates), which is the same
-/// exactness argument as the core's c > m test (DESIGN.md §3) and the very comparison a brute-force
-/// search makes. Reported distances are those doubles rounded to float.
+/// Device layout (built from the core's CSR on upload): vertices as float4 {x, y, z, safe-ball r^2}
+/// (16-byte loads, 7 MB for the 437k dragon, so the whole vertex set stays in the H100's 50 MB L2) and,
+/// per directed edge, the neighbour index j (4 bytes instead of the core's 20-byte record), plus the
+/// neighbour's position inline where that fits L2. The walk compares squared distances
+/// |q - x_j|^2 < |q - x_i|^2 directly, which is the same exactness argument as the core's c > m test
+/// (DESIGN.md §3): in float where float decides with margin, otherwise in double from the float
+/// coordinates, the very comparison a brute-force search makes. Reported distances are the doubles
+/// rounded to float.
 #pragma once
 
 #include <cuda_runtime_api.h>
@@ -26,7 +28,7 @@ namespace gpu {
 
 /// Raw device pointers of an uploaded graph: what kernels receive by value.
 struct DeviceGraphView {
-  const float4* points = nullptr;          ///< n vertices, local frame, w = 0
+  const float4* points = nullptr;          ///< n vertices, local frame, w = safe-ball radius^2 (0: none)
   const std::uint32_t* offsets = nullptr;  ///< n + 1 CSR offsets
   const std::uint32_t* neighbours = nullptr;
   /// Optional per-edge copy of the neighbour's position, w = j's bits (see setInlineNeighbourPositions).
@@ -34,6 +36,8 @@ struct DeviceGraphView {
   const std::uint32_t* originals_offsets = nullptr;  ///< n + 1
   const std::uint32_t* originals = nullptr;          ///< input indices per vertex, ascending
   std::uint32_t num_vertices = 0;
+  bool safe_ball = true;  ///< stop at once inside points[v].w (DelaunayWalk::setSafeBallTest)
+  bool shortest_first = false;  ///< neighbourhoods sorted by edge length: scans may stop early
   // Start grid (KD-ANN's role, O(1)): seed vertex of each cell = exact NN of the cell centre.
   const std::uint32_t* grid_seeds = nullptr;
   float grid_min[3] = {0.f, 0.f, 0.f};
@@ -80,9 +84,18 @@ class DelaunayWalk {
 
   /// \brief Also store, per directed edge, the neighbour's position next to its index (16 bytes per
   /// edge instead of 4): a scan then reads one contiguous run instead of gathering vertices, one
-  /// dependent load fewer per step. Pays while the edge array fits in L2 (docs/gpu.md). Synchronous.
+  /// dependent load fewer per step. Pays while the edge array fits in L2 (docs/gpu.md). Without a call,
+  /// each uploaded graph gets defaultInlineNeighbourPositions(); a call fixes the choice. Synchronous.
   void setInlineNeighbourPositions(bool on);
+  /// The layout measured faster on the H100 for a graph of this many directed edges (docs/gpu.md).
+  static bool defaultInlineNeighbourPositions(std::size_t num_directed_edges);
   bool inlineNeighbourPositions() const { return view_.edge_points != nullptr; }
+
+  /// \brief Stop a walk without scanning edges when the query lies inside the current vertex's safe
+  /// ball (radius: half the distance to its nearest neighbour, shrunk by 1e-5), where that vertex is
+  /// certainly the nearest. On by default; off only to measure what it saves.
+  void setSafeBallTest(bool on);
+  bool safeBallTest() const { return safe_ball_; }
 
   /// \brief Exact nearest vertex of each query.
   /// \param[in] queries n queries (device)
@@ -133,6 +146,7 @@ class DelaunayWalk {
               const DeviceArray<std::uint32_t>* hints, DeviceArray<std::uint32_t>& indices,
               DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts, cudaStream_t stream) const;
   void buildStartGrid(const dw::DelaunayGraph& graph, double cells_per_vertex);
+  void applyInlineNeighbourPositions(bool on);
 
   DeviceArray<float4> points_;
   DeviceArray<std::uint32_t> offsets_;
@@ -146,8 +160,10 @@ class DelaunayWalk {
   DeviceGraphView view_;
   std::array<double, 3> origin_{{0.0, 0.0, 0.0}};
   std::size_t num_inputs_ = 0;
-  int group_size_ = 8;
+  int group_size_ = 4;
   bool auto_group_size_ = true;
+  bool auto_inline_ = true;
+  bool safe_ball_ = true;
 };
 
 }  // namespace gpu

@@ -58,6 +58,13 @@ struct IcpParameters {
   int max_iterations_similar_transforms = 0;
   bool failure_after_max_iterations = false;
   unsigned min_number_correspondences = 3;
+  /// Evaluate the transformation criterion on the step rounded to float, as PCL's
+  /// IterativeClosestPoint<..., float> (its default Scalar) does: cos(angle) = 0.5 (trace - 1) with the
+  /// diagonal summed in float, the squared translation in float. Float quantises cos(angle) in steps of
+  /// ~6e-8, so with a tight transformation_epsilon PCL stops on the translation alone where a double
+  /// test would also wait for the rotation. false: in double (IterativeClosestPoint<..., double>).
+  /// parametersFrom() (pcl_adapters.h) sets it from the PCL object's Scalar.
+  bool float_transform_criteria = true;
 };
 
 /// Outcome of one registration.

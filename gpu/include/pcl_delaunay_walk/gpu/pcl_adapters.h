@@ -9,6 +9,7 @@
 #include <pcl/registration/icp.h>
 
 #include <Eigen/Core>
+#include <type_traits>
 
 #include "pcl_delaunay_walk/core/point_view.h"
 #include "pcl_delaunay_walk/gpu/iterative_closest_point.h"
@@ -55,6 +56,7 @@ IcpParameters parametersFrom(const pcl::IterativeClosestPoint<PointSource, Point
   p.transformation_rotation_epsilon = r.getTransformationRotationEpsilon();
   p.euclidean_fitness_epsilon = r.getEuclideanFitnessEpsilon();
   p.max_correspondence_distance = r.getMaxCorrespondenceDistance();
+  p.float_transform_criteria = std::is_same<Scalar, float>::value;
   return p;
 }
 
