@@ -149,9 +149,7 @@ class IcpScene {
                                              "target");
     coloured_.reset(new pcl::PointCloud<pcl::PointXYZRGB>);
     fillSourceColours();
-    viewer_.addPointCloud<pcl::PointXYZRGB>(coloured_, RgbHandler(coloured_), "source");
-    viewer_.setPointCloudRenderingProperties(pcl::visualization::PCL_VISUALIZER_POINT_SIZE, o_.point_size + 1,
-                                             "source");
+    showSource();
     for (int line = 0; line < 5; ++line) {
       viewer_.addText("", 10, textRowY(line), font_, 0.92, 0.92, 0.92, textId(line));
       shadeText(viewer_, textId(line));
@@ -173,10 +171,21 @@ class IcpScene {
     refresh();
   }
 
+  /// (Re)adds the coloured source cloud. Not PCLVisualizer::updatePointCloud: in PCL 1.13 it
+  /// reinterpret_casts the actor's vtkDataSetMapper to vtkPolyDataMapper and calls members through it,
+  /// undefined behaviour that UBSan reports (docs/robustness.md, B9). Re-adding costs one conversion,
+  /// the same as the update.
+  void showSource() {
+    viewer_.removePointCloud("source");
+    viewer_.addPointCloud<pcl::PointXYZRGB>(coloured_, RgbHandler(coloured_), "source");
+    viewer_.setPointCloudRenderingProperties(pcl::visualization::PCL_VISUALIZER_POINT_SIZE, o_.point_size + 1,
+                                             "source");
+  }
+
   /// Redraws everything that changes with the pose.
   void refresh() {
     fillSourceColours();
-    viewer_.updatePointCloud<pcl::PointXYZRGB>(coloured_, RgbHandler(coloured_), "source");
+    showSource();
     replaceShape("correspondences",
                  show_lines_ ? dw_viewer::correspondenceSegments(icp_.source(), icp_.target(),
                                                                  icp_.correspondences(), o_.max_lines)

@@ -20,17 +20,6 @@
 
 namespace dw_fuzz {
 
-/// Bugs already reported (see docs/robustness.md, "Known bugs") are stepped around by default so that a
-/// fuzz run keeps searching for new ones; DW_FUZZ_KNOWN_BUGS=report makes the harnesses hit them again
-/// (to check a fix). Their failing tests live in test/robustness.
-inline bool reportKnownBugs() {
-  static const bool report = [] {
-    const char* v = std::getenv("DW_FUZZ_KNOWN_BUGS");
-    return v != nullptr && std::strcmp(v, "report") == 0;
-  }();
-  return report;
-}
-
 constexpr std::size_t kFlagsAt = 20, kGraphHeaderSize = 104, kPayloadChecksumAt = 88, kHeaderChecksumAt = 96;
 
 inline void resealGraphFile(std::vector<std::uint8_t>& f) {

@@ -111,7 +111,7 @@ __device__ __forceinline__ void scanNeighbours(const Tile& tile, const DeviceGra
         if (betterF(d, j1, bd, bv)) bd = d, bv = j1;
       }
       if (base + 2 * G < e && stop_len2 < INFINITY) {  // uniform: every lane sees the same edge
-        float len2 = dist2f(p1, pv.x, pv.y, pv.z);  // this lane's second edge; the tile's last is lane G-1
+        float len2 = dist2f(p1, pv.x, pv.y, pv.z);     // this lane's second edge; the tile's last is lane G-1
         if constexpr (G > 1) len2 = tile.shfl(len2, G - 1);
         if (len2 > stop_len2) break;
       }

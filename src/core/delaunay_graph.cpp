@@ -67,7 +67,8 @@ void DelaunayGraph::validate() const {
 std::size_t DelaunayGraph::memoryBytes() const {
   return points.size() * sizeof(Vec3f) + offsets.size() * sizeof(index_t) +
          edges.size() * sizeof(EdgeRecord) + input_to_vertex.size() * sizeof(index_t) +
-         originals_offsets.size() * sizeof(index_t) + originals.size() * sizeof(index_t) + safe_radius2.size() * sizeof(float);
+         originals_offsets.size() * sizeof(index_t) + originals.size() * sizeof(index_t) +
+         safe_radius2.size() * sizeof(float);
 }
 
 void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> undirected) {

@@ -21,7 +21,7 @@ TEST(QueryOrder, IsAStableGroupingPermutation) {
   for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(sorted[i], i);  // a permutation
   auto group = [&](index_t i) -> long { return start[i] < nv ? long(start[i] / 64) : -1L; };
   for (std::size_t k = 1; k < n; ++k) {
-    ASSERT_LE(group(order[k - 1]), group(order[k])) << k;                             // grouped, ascending
+    ASSERT_LE(group(order[k - 1]), group(order[k])) << k;  // grouped, ascending
     if (group(order[k - 1]) == group(order[k])) {
       ASSERT_LT(order[k - 1], order[k]) << k;  // stable within a group
     }

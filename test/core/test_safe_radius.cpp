@@ -12,7 +12,8 @@ using namespace dw;
 namespace {
 
 std::shared_ptr<DelaunayGraph> graphOf(const std::vector<double>& xyz) {
-  return std::make_shared<DelaunayGraph>(buildDelaunayGraph(PointView::fromDouble(xyz.data(), xyz.size() / 3)));
+  return std::make_shared<DelaunayGraph>(
+      buildDelaunayGraph(PointView::fromDouble(xyz.data(), xyz.size() / 3)));
 }
 
 /// Squared distance from vertex v to its nearest other vertex, by brute force in double.
@@ -38,7 +39,8 @@ TEST(SafeRadius, IsHalfTheNearestNeighbourDistanceShrunk) {
 TEST(Graph, NeighbourhoodsAreShortestFirstAndOldOrderIsRepaired) {
   auto g = graphOf(dw_test::uniformCube(500, 47));
   for (index_t v = 0; v < g->numVertices(); ++v)
-    for (index_t e = g->offsets[v]; e + 1 < g->offsets[v + 1]; ++e) ASSERT_LE(g->edges[e].m, g->edges[e + 1].m);
+    for (index_t e = g->offsets[v]; e + 1 < g->offsets[v + 1]; ++e)
+      ASSERT_LE(g->edges[e].m, g->edges[e + 1].m);
   // A graph in the previous order (ascending j, as files of earlier versions hold) fails validation
   // and is put back in order by sortNeighbourhoods (what loading does).
   DelaunayGraph old = *g;

@@ -88,7 +88,8 @@ inline EdgeScan scanEdges(const EdgeRecord* first, const EdgeRecord* end, const 
   if (best_pos >= 0) s.best = first[best_pos].j;
   const EdgeScan tail = scanEdgesScalar(e, end, u, stop_m);
   s.max_margin = std::max(s.max_margin, tail.max_margin);
-  if (tail.best != kInvalidIndex && tail.best_gain > s.best_gain) s.best_gain = tail.best_gain, s.best = tail.best;
+  if (tail.best != kInvalidIndex && tail.best_gain > s.best_gain)
+    s.best_gain = tail.best_gain, s.best = tail.best;
   return s;
 #else
   return scanEdgesScalar(first, end, u, stop_m);

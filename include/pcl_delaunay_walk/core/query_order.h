@@ -17,7 +17,8 @@ namespace dw {
 /// dragon 100k, walking a PNN batch in this order cut the time per query by ~15% on top of prefetching.
 /// Each query's answer is independent of the order, so results (stored by position) do not change.
 /// A counting sort on start / 64 (vertices sharing cache lines of the graph arrays) costs O(n + V/64).
-inline std::vector<index_t> orderByStartVertex(const index_t* start, std::size_t n, std::size_t num_vertices) {
+inline std::vector<index_t> orderByStartVertex(const index_t* start, std::size_t n,
+                                               std::size_t num_vertices) {
   constexpr std::size_t kGroup = 64;
   const std::size_t buckets = num_vertices / kGroup + 2;  // bucket 0: no valid start
   std::vector<std::size_t> first(buckets + 1, 0);

@@ -36,7 +36,7 @@ struct DeviceGraphView {
   const std::uint32_t* originals_offsets = nullptr;  ///< n + 1
   const std::uint32_t* originals = nullptr;          ///< input indices per vertex, ascending
   std::uint32_t num_vertices = 0;
-  bool safe_ball = true;  ///< stop at once inside points[v].w (DelaunayWalk::setSafeBallTest)
+  bool safe_ball = true;        ///< stop at once inside points[v].w (DelaunayWalk::setSafeBallTest)
   bool shortest_first = false;  ///< neighbourhoods sorted by edge length: scans may stop early
   // Start grid (KD-ANN's role, O(1)): seed vertex of each cell = exact NN of the cell centre.
   const std::uint32_t* grid_seeds = nullptr;

@@ -96,7 +96,8 @@ void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::sea
     PointSource as_source;
     constexpr std::size_t kAhead = 6;  // queries between a start-vertex prefetch and its walk
     for (std::size_t k = begin; k < end; ++k) {
-      if (use_hints && k + kAhead < end) wq.neighbourSearch().prefetchStart(hints_[(*indices_)[order[k + kAhead]]]);
+      if (use_hints && k + kAhead < end)
+        wq.neighbourSearch().prefetchStart(hints_[(*indices_)[order[k + kAhead]]]);
       const std::size_t i = use_hints ? order[k] : k;
       const auto idx = (*indices_)[i];
       const PointSource& p = (*input_)[idx];
