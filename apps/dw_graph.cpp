@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "pcl_delaunay_walk/core/file_header_check.h"
 #include "pcl_delaunay_walk/core/graph_builder.h"
 #include "pcl_delaunay_walk/core/graph_io.h"
 #include "pcl_delaunay_walk/core/point_file.h"
@@ -36,6 +37,7 @@ pcl::PointCloud<pcl::PointXYZ> loadCloud(const std::string& path) {
   if (endsWith(path, ".gz")) throw dw::Error("'" + path + "' is compressed: gunzip it first");
   pcl::PointCloud<pcl::PointXYZ> cloud;
   if (endsWith(path, ".pcd")) {
+    dw::checkPointFileHeader(path);  // PCL 1.13 crashes on some malformed headers (robustness.md)
     if (pcl::io::loadPCDFile(path, cloud) < 0) throw dw::Error("'" + path + "' is not a readable PCD file");
     return cloud;
   }

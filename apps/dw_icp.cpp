@@ -29,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "pcl_delaunay_walk/core/file_header_check.h"
 #include "pcl_delaunay_walk/core/point_file.h"
 #include "pcl_delaunay_walk/registration/icp_delaunay_walk.h"
 
@@ -51,6 +52,7 @@ Cloud::Ptr loadCloud(const std::string& path) {
   if (endsWith(path, ".gz")) throw dw::Error("'" + path + "' is compressed: gunzip it first");
   Cloud::Ptr cloud(new Cloud);
   if (endsWith(path, ".pcd")) {
+    dw::checkPointFileHeader(path);  // PCL 1.13 crashes on some malformed headers (robustness.md)
     if (pcl::io::loadPCDFile(path, *cloud) < 0) throw dw::Error("'" + path + "' is not a readable PCD file");
     return cloud;
   }

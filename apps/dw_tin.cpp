@@ -13,6 +13,7 @@
 #include <string>
 #include <thread>
 
+#include "pcl_delaunay_walk/core/file_header_check.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
@@ -130,6 +131,7 @@ int main(int argc, char** argv) {
       same_scale = las.header.scale[0] == las.header.scale[1];
     } else if (endsWith(ext, ".pcd") || endsWith(ext, ".ply")) {
       if (cls >= 0) throw dw::Error("--class needs a LAS input");
+      dw::checkPointFileHeader(in);  // PCL 1.13 crashes on some malformed headers (robustness.md)
       const int rc =
           endsWith(ext, ".pcd") ? pcl::io::loadPCDFile(in, cloud) : pcl::io::loadPLYFile(in, cloud);
       if (rc < 0) throw dw::Error(in + ": PCL could not read the file (corrupt or unsupported)");

@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "pcl_delaunay_walk/core/file_header_check.h"
 #include "pcl_delaunay_walk/core/types.h"
 #include "pcl_delaunay_walk/io/las_io.h"
 
@@ -123,6 +124,13 @@ inline std::size_t scalarSize(std::uint8_t datatype) {
 inline void loadBlob(const std::string& path, pcl::PCLPointCloud2& blob, pcl::PolygonMesh* mesh) {
   const std::string ext = lowerExtension(path);
   int rc = -1;
+  if (ext == "pcd" || ext == "ply") {
+    try {  // PCL 1.13 crashes on some malformed headers (docs/robustness.md)
+      dw::checkPointFileHeader(path);
+    } catch (const dw::Error& e) {
+      throw dw::Error(std::string("dw_viewer: cannot read ") + e.what());
+    }
+  }
   if (ext == "pcd") {
     pcl::PCDReader reader;
     rc = reader.read(path, blob);
