@@ -18,6 +18,7 @@
 #include <unordered_map>
 
 #include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
+#include "pcl_delaunay_walk/core/builder3d/rounded_circumsphere.h"
 #include "pcl_delaunay_walk/core/predicates_3d.h"
 #include "pcl_delaunay_walk/core/space_filling_curve.h"
 
@@ -26,6 +27,8 @@ namespace mpi {
 namespace {
 
 using builder3d::DelaunayKernel3D;
+using builder3d::RoundedCircumsphere;
+using builder3d::roundedCircumsphere;
 
 double since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -540,39 +543,22 @@ class RankBlock {
   enum class Ball { kCertified, kConflict, kWaiting };
   Ball conflictsInBall(const index_t* tv, unsigned own, std::vector<index_t>& adds,
                        std::vector<std::uint32_t>& need) {
-    double P[4][3];
+    double P[4][3];  // the vertices in double, for the exact insphere test below
     for (unsigned k = 0; k < 4; ++k) {
       const Vec3f& q = pts_[tv[k]];
       P[k][0] = q.x, P[k][1] = q.y, P[k][2] = q.z;
     }
-    double u[3], v[3], w[3];
-    for (int k = 0; k < 3; ++k) u[k] = P[1][k] - P[0][k], v[k] = P[2][k] - P[0][k], w[k] = P[3][k] - P[0][k];
-    const double vxw[3] = {v[1] * w[2] - v[2] * w[1], v[2] * w[0] - v[0] * w[2], v[0] * w[1] - v[1] * w[0]};
-    const double wxu[3] = {w[1] * u[2] - w[2] * u[1], w[2] * u[0] - w[0] * u[2], w[0] * u[1] - w[1] * u[0]};
-    const double uxv[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
-    const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
-    const double vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-    const double ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-    const double det = u[0] * vxw[0] + u[1] * vxw[1] + u[2] * vxw[2];
-    double off[3], centre[3] = {0, 0, 0}, r = 0.0;
-    for (int k = 0; k < 3; ++k) {
-      off[k] = (uu * vxw[k] + vv * wxu[k] + ww * uxv[k]) / (2.0 * det);
-      r += off[k] * off[k];
-    }
-    r = std::sqrt(r);
-    const double L = std::sqrt(std::max({uu, vv, ww}));
-    const double eps = std::numeric_limits<double>::epsilon();
     // The same generous bound on the rounding of centre and radius as the threaded builder.
-    const double margin =
-        64.0 * eps * (L * L * L * L + r * L * L * L) / std::fabs(det) + 1e-9 * (r + grid_.width);
-    const double R = r + margin;
-    const bool all = !std::isfinite(R);  // a flat sliver: every cell may hold a point of its ball
+    const RoundedCircumsphere ball =
+        roundedCircumsphere(pts_[tv[0]], pts_[tv[1]], pts_[tv[2]], pts_[tv[3]], grid_.width);
+    const double R = ball.radius;
+    const bool all = ball.unbounded();  // a flat sliver: every cell may hold a point of its ball
+    const double* centre = ball.centre;
     int range[3][2];
     for (int k = 0; k < 3; ++k) {
       if (all) {
         range[k][0] = 0, range[k][1] = grid_.dims[k] - 1;
       } else {
-        centre[k] = P[0][k] + off[k];
         range[k][0] = grid_.coord(centre[k] - R - grid_.slack, k);
         range[k][1] = grid_.coord(centre[k] + R + grid_.slack, k);
       }

@@ -10,6 +10,7 @@
 
 #include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
 #include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
+#include "pcl_delaunay_walk/core/builder3d/rounded_circumsphere.h"
 
 namespace dw {
 namespace builder3d {
@@ -187,42 +188,20 @@ class Block {
   // finite tetrahedron tv, enlarged by a bound on the rounding of its centre and radius. When none
   // has, every point of the ball is in the kernel: the tetrahedron is certified.
   void missingUnderBall(const index_t* tv, std::vector<std::uint32_t>& grown) {
-    double P[4][3];
-    for (unsigned k = 0; k < 4; ++k) {
-      const Vec3f& q = points_[tv[k]];
-      P[k][0] = q.x, P[k][1] = q.y, P[k][2] = q.z;
-    }
-    double u[3], v[3], w[3];
-    for (int k = 0; k < 3; ++k) u[k] = P[1][k] - P[0][k], v[k] = P[2][k] - P[0][k], w[k] = P[3][k] - P[0][k];
-    const double vxw[3] = {v[1] * w[2] - v[2] * w[1], v[2] * w[0] - v[0] * w[2], v[0] * w[1] - v[1] * w[0]};
-    const double wxu[3] = {w[1] * u[2] - w[2] * u[1], w[2] * u[0] - w[0] * u[2], w[0] * u[1] - w[1] * u[0]};
-    const double uxv[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
-    const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
-    const double vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-    const double ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-    const double det = u[0] * vxw[0] + u[1] * vxw[1] + u[2] * vxw[2];
+    const RoundedCircumsphere ball =
+        roundedCircumsphere(points_[tv[0]], points_[tv[1]], points_[tv[2]], points_[tv[3]], grid_.cell);
+    const double R = ball.radius;
     int range[3][2];
-    double off[3], centre[3], r = 0.0;
-    for (int k = 0; k < 3; ++k) {
-      off[k] = (uu * vxw[k] + vv * wxu[k] + ww * uxv[k]) / (2.0 * det);
-      r += off[k] * off[k];
-    }
-    r = std::sqrt(r);
-    const double L = std::sqrt(std::max({uu, vv, ww}));
-    const double eps = std::numeric_limits<double>::epsilon();
-    const double margin =
-        64.0 * eps * (L * L * L * L + r * L * L * L) / std::fabs(det) + 1e-9 * (r + grid_.cell);
-    const double R = r + margin;
-    if (!std::isfinite(R)) {
+    if (ball.unbounded()) {
       for (int k = 0; k < 3; ++k)
         range[k][0] = 0, range[k][1] = grid_.dims[k] - 1;  // a flat sliver: take all
     } else {
       for (int k = 0; k < 3; ++k) {
-        centre[k] = P[0][k] + off[k];
-        range[k][0] = grid_.coord(centre[k] - R, k);
-        range[k][1] = grid_.coord(centre[k] + R, k);
+        range[k][0] = grid_.coord(ball.centre[k] - R, k);
+        range[k][1] = grid_.coord(ball.centre[k] + R, k);
       }
     }
+    const double* centre = ball.centre;
     const bool all = !std::isfinite(R);
     const double R2 = R * R;
     for (int x = range[0][0]; x <= range[0][1]; ++x)
