@@ -77,6 +77,10 @@ for t in json.load(sys.stdin).get("tests", []):
     for arg in t.get("command", []) or []:
         names.add(os.path.basename(arg.split("=", 1)[-1]))
 print("\n".join(sorted(names)))' | grep -Fxf <(printf '%s\n' "$available")
+    # In a fresh build dir ctest cannot resolve a test's executable before it is built and leaves it
+    # out of the JSON above, so the apps are also read from the generated test files themselves.
+    grep -rhoE '/apps/dw_[A-Za-z0-9_]+' "$dir" --include=CTestTestfile.cmake 2>/dev/null | sed 's|.*/||' |
+      grep -Fxf <(printf '%s\n' "$available")
   } | sort -u
 }
 
