@@ -138,7 +138,10 @@ void computeSafeRadii(DelaunayGraph& g) {
     for (index_t e = g.offsets[v]; e < g.offsets[v + 1]; ++e) r = std::min(r, g.edges[e].m);
     if (!std::isfinite(r)) continue;  // isolated vertex (a one-point graph): no bound, keep 0
     const double r2 = double(r) * double(r) * (1.0 - 1e-5);
-    if (r2 >= 1e-30) g.safe_radius2[v] = static_cast<float>(r2);
+    const float f = static_cast<float>(r2);
+    // Kept only where float holds it below r^2 (r^2 beyond float's range, from a file's huge edge
+    // lengths, would round to inf): the invariant validate() checks.
+    if (r2 >= 1e-30 && std::isfinite(f) && double(f) < double(r) * double(r)) g.safe_radius2[v] = f;
   }
 }
 

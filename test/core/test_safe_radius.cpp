@@ -64,6 +64,16 @@ TEST(SafeRadius, TooLargeARadiusFailsValidation) {
   EXPECT_NO_THROW(g->validate());
 }
 
+TEST(SafeRadius, EdgeLengthsBeyondFloatSquaresGiveNoBall) {
+  // Found by fuzz_graph_file: a file whose (finite) half-lengths square past FLT_MAX made the stored
+  // radius inf, which validate() then rejected. Such vertices get no ball (0), and the graph is valid.
+  auto g = graphOf(dw_test::uniformCube(50, 48));
+  for (auto& e : g->edges) e.m *= 1e30f;
+  computeSafeRadii(*g);
+  EXPECT_NO_THROW(g->validate());
+  for (float r2 : g->safe_radius2) EXPECT_EQ(r2, 0.f);
+}
+
 TEST(SafeRadius, QueriesAroundTheBallBoundaryStayExact) {
   // Queries at 0.9, 0.99999, 1, 1.00001 and 1.1 safe radii from a vertex, towards its nearest
   // neighbour (where the ball touches the Voronoi face: the hardest direction) and in random ones.
