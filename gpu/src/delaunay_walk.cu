@@ -253,7 +253,8 @@ void DelaunayWalk::setGraph(const dw::DelaunayGraph& graph, double cells_per_ver
       prev2 = len2;
     }
     const double r2 = 0.25 * nn2 * (1.0 - 1e-5);
-    pts[v] = make_float4(x.x, x.y, x.z, std::isfinite(r2) && r2 >= 1e-30 ? float(r2) : 0.f);
+    const float w = static_cast<float>(r2);  // inf when r^2 leaves float's range: then no ball
+    pts[v] = make_float4(x.x, x.y, x.z, std::isfinite(w) && r2 >= 1e-30 && double(w) < 0.25 * nn2 ? w : 0.f);
   }
   vertex_to_input_.resize(nv);
   for (std::size_t v = 0; v < nv; ++v) {
