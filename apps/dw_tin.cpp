@@ -15,6 +15,7 @@
 
 #include "pcl_delaunay_walk/core/file_header_check.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
+#include "pcl_delaunay_walk/core/process_memory.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/core/tin/ply_writer.h"
@@ -29,14 +30,6 @@ void usage() {
       "  Delaunay triangulation of the points' (x, y), z kept; writes a binary PLY mesh.\n"
       "  --class C   LAS only: keep points of classification C (2 = ground)\n"
       "  --certify   check every edge with exact predicates afterwards (slower, more memory)\n");
-}
-
-long peakRssKb() {
-  std::ifstream f("/proc/self/status");
-  std::string line;
-  while (std::getline(f, line))
-    if (line.rfind("VmHWM:", 0) == 0) return std::atol(line.c_str() + 6);
-  return 0;
 }
 
 std::string lower(std::string s) {
@@ -196,7 +189,7 @@ int main(int argc, char** argv) {
         },
         tin.triangles.data(), tin.triangles.size(), comments);
     const double t_write = since(t2), total = since(t0);
-    const long peak = peakRssKb();
+    const long peak = dw::processStatusKb("VmHWM:");
     std::printf(
         "points %zu (distinct %zu, duplicates %zu, skipped %zu)  triangles %zu  vertices written %llu\n", n,
         tin.num_vertices, tin.duplicates.size(), tin.skipped.size(), tin.numTriangles(),

@@ -21,6 +21,7 @@
 
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/las/synthetic_lidar.h"
+#include "pcl_delaunay_walk/core/process_memory.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 
@@ -62,21 +63,6 @@ std::vector<unsigned> parseList(const std::string& s, const char* what, unsigned
   }
   if (out.empty()) throw dw::Error(std::string("empty list of ") + what);
   return out;
-}
-
-long statusKb(const char* key) {
-  std::ifstream f("/proc/self/status");
-  std::string line;
-  const std::size_t kl = std::strlen(key);
-  while (std::getline(f, line))
-    if (line.compare(0, kl, key) == 0) return std::atol(line.c_str() + kl);
-  return 0;
-}
-
-/// Linux: writing 5 to clear_refs resets VmHWM to the current RSS, so each run measures its own peak.
-void resetPeak() {
-  std::ofstream f("/proc/self/clear_refs");
-  f << "5";
 }
 
 double processCpuSeconds() {
@@ -182,8 +168,8 @@ int main(int argc, char** argv) {
         Run best;
         for (unsigned r = 0; r < repeats; ++r) {
           std::vector<double> cx = x, cy = y;  // the run owns (and frees) its copy, as dw_tin does
-          const long base = statusKb("VmRSS:");
-          resetPeak();
+          const long base = dw::processStatusKb("VmRSS:");
+          dw::resetPeakResident();
           dw::tin::TinOptions o;
           o.num_threads = t;
           o.num_strips = k;
@@ -193,7 +179,8 @@ int main(int argc, char** argv) {
           const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
           const double cpu = processCpuSeconds() - c0;
           // Growth of the peak over what was resident before; the moved-in copy counts (it is the input).
-          const double bpp = (double(statusKb("VmHWM:") - base) * 1024.0 + 16.0 * double(n)) / double(n);
+          const double bpp =
+              (double(dw::processStatusKb("VmHWM:") - base) * 1024.0 + 16.0 * double(n)) / double(n);
           if (wall < best.wall) {
             best.wall = wall;
             best.stats = res.stats;

@@ -20,6 +20,7 @@
 
 #include "pcl_delaunay_walk/core/las/synthetic_lidar.h"
 #include "pcl_delaunay_walk/core/predicates_2d.h"
+#include "pcl_delaunay_walk/core/process_memory.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 
 #ifdef DW_HAVE_CGAL
@@ -50,21 +51,6 @@ const Input& input(std::size_t n) {
   return cache.emplace(n, std::move(in)).first->second;
 }
 
-long residentKb(const char* key) {
-  std::ifstream f("/proc/self/status");
-  std::string line;
-  const std::size_t kl = std::strlen(key);
-  while (std::getline(f, line))
-    if (line.compare(0, kl, key) == 0) return std::atol(line.c_str() + kl);
-  return 0;
-}
-
-/// Resets the kernel's peak-RSS mark (Linux: writing 5 to clear_refs) so each run measures its own peak.
-void resetPeak() {
-  std::ofstream f("/proc/self/clear_refs");
-  f << "5";
-}
-
 void BM_DwTin(benchmark::State& state, std::size_t n, unsigned threads) {
   const Input& in = input(n);
   std::size_t tris = 0;
@@ -72,8 +58,8 @@ void BM_DwTin(benchmark::State& state, std::size_t n, unsigned threads) {
   for (auto _ : state) {
     state.PauseTiming();
     std::vector<double> x = in.x, y = in.y;  // the run owns (and frees) its copy, as dw_tin does
-    const long base = residentKb("VmRSS:");
-    resetPeak();
+    const long base = dw::processStatusKb("VmRSS:");
+    dw::resetPeakResident();
     dw::pred::resetPredicateStats();
     state.ResumeTiming();
     dw::tin::TinOptions o;
@@ -82,7 +68,7 @@ void BM_DwTin(benchmark::State& state, std::size_t n, unsigned threads) {
     state.PauseTiming();
     tris = r.numTriangles();
     // Growth of the peak over what was resident before (the moved-in copy counts: it is the input).
-    peak_bytes = double(residentKb("VmHWM:") - base) * 1024.0 + 16.0 * double(n);
+    peak_bytes = double(dw::processStatusKb("VmHWM:") - base) * 1024.0 + 16.0 * double(n);
     state.ResumeTiming();
   }
   state.counters["Mpts_per_s"] =
@@ -109,14 +95,14 @@ void BM_CgalDelaunay2(benchmark::State& state, std::size_t n) {
     std::vector<K::Point_2> pts;
     pts.reserve(n);
     for (std::size_t i = 0; i < n; ++i) pts.emplace_back(in.x[i], in.y[i]);
-    const long base = residentKb("VmRSS:");
-    resetPeak();
+    const long base = dw::processStatusKb("VmRSS:");
+    dw::resetPeakResident();
     state.ResumeTiming();
     DT dt;
     dt.insert(pts.begin(), pts.end());  // CGAL spatially sorts the range (Hilbert/BRIO) first
     state.PauseTiming();
     tris = dt.number_of_faces();
-    peak_bytes = double(residentKb("VmHWM:") - base) * 1024.0 + double(n * sizeof(K::Point_2));
+    peak_bytes = double(dw::processStatusKb("VmHWM:") - base) * 1024.0 + double(n * sizeof(K::Point_2));
     state.ResumeTiming();
   }
   state.counters["Mpts_per_s"] =

@@ -57,7 +57,8 @@ Expected kdTreeAnswers(const Cloud::Ptr& cloud, const Cloud& queries, int k, dou
 bool sameDistances(const std::vector<float>& a, const std::vector<float>& b) {
   if (a.size() != b.size()) return false;
   for (std::size_t i = 0; i < a.size(); ++i)
-    if (!::testing::internal::FloatingPoint<float>(a[i]).AlmostEquals(::testing::internal::FloatingPoint<float>(b[i])))
+    if (!::testing::internal::FloatingPoint<float>(a[i]).AlmostEquals(
+            ::testing::internal::FloatingPoint<float>(b[i])))
       return false;
   return true;
 }

@@ -63,7 +63,9 @@ std::string floats(const std::vector<float>& v) {
   return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(float));
 }
 
-std::string u32(std::uint32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); }
+std::string u32(std::uint32_t v) {
+  return std::string(reinterpret_cast<const char*>(&v), 4);
+}
 
 std::vector<HostileFile> hostilePcdFiles() {
   const std::string six = floats({0.f, 0.f, 0.f, 1.f, 2.f, 3.f});
@@ -77,7 +79,8 @@ std::vector<HostileFile> hostilePcdFiles() {
       {"ascii_nan_and_inf", xyzHeader("3", "3", "ascii") + "nan 0 0\n0 inf 0\n1 2 3\n"},
       {"binary_truncated", xyzHeader("1000", "1000", "binary") + six},
       // B14: PCL allocates what the header claims (48 GiB): std::bad_alloc in Release, ASan's OOM report.
-      {"binary_huge_point_count", xyzHeader("4294967295", "4294967295", "binary") + six, Pcl::DiesInstrumented},
+      {"binary_huge_point_count", xyzHeader("4294967295", "4294967295", "binary") + six,
+       Pcl::DiesInstrumented},
       // B11: WIDTH x HEIGHT wraps in 32 bits and disagrees with POINTS; fromPCLPointCloud2 then copies
       // 2^32 rows: past the cloud's buffer (SEGV under the sanitizers), or for minutes (Release).
       {"binary_width_height_overflow",
@@ -85,12 +88,14 @@ std::vector<HostileFile> hostilePcdFiles() {
        Pcl::Crashes},
       {"negative_counts", pcdHeader("x y z", "4 4 4", "F F F", "1 1 1", "-1", "-1", "-1", "binary") + six},
       {"zero_size_and_count", pcdHeader("x y z", "0 0 0", "F F F", "0 0 0", "2", "1", "2", "binary") + six},
-      {"field_lists_of_different_lengths", pcdHeader("x y z", "4 4", "F", "1 1 1 1", "2", "1", "2", "binary") + six},
+      {"field_lists_of_different_lengths",
+       pcdHeader("x y z", "4 4", "F", "1 1 1 1", "2", "1", "2", "binary") + six},
       {"no_xyz_fields", pcdHeader("intensity", "4", "F", "1", "2", "1", "2", "ascii") + "1\n2\n"},
-      {"compressed_sizes_lie", xyzHeader("2", "2", "binary_compressed") + u32(0x7fffffff) + u32(0xffffffff) + six},
+      {"compressed_sizes_lie",
+       xyzHeader("2", "2", "binary_compressed") + u32(0x7fffffff) + u32(0xffffffff) + six},
       {"compressed_truncated", xyzHeader("2", "2", "binary_compressed") + u32(24) + u32(24) + "\x01\x02"},
-      {"compressed_garbage_stream", xyzHeader("2", "2", "binary_compressed") + u32(24) + u32(24) +
-                                        std::string(24, '\xff')},
+      {"compressed_garbage_stream",
+       xyzHeader("2", "2", "binary_compressed") + u32(24) + u32(24) + std::string(24, '\xff')},
       {"unknown_data_kind", xyzHeader("2", "2", "base64") + six},
   };
 }
@@ -108,11 +113,14 @@ std::vector<HostileFile> hostilePlyFiles() {
       {"binary_huge_vertex_count", head + "element vertex 1099511627776\n" + xyz + floats({1.f, 2.f, 3.f}),
        Pcl::Crashes},
       // B14 again: -1 read as 2^32-1 vertices, allocated before reading.
-      {"negative_vertex_count", head + "element vertex -1\n" + xyz + floats({1.f, 2.f, 3.f}), Pcl::DiesInstrumented},
-      {"face_list_count_huge", head + "element vertex 3\n" + "property float x\nproperty float y\nproperty float z\n" +
+      {"negative_vertex_count", head + "element vertex -1\n" + xyz + floats({1.f, 2.f, 3.f}),
+       Pcl::DiesInstrumented},
+      {"face_list_count_huge", head + "element vertex 3\n" +
+                                   "property float x\nproperty float y\nproperty float z\n" +
                                    "element face 1\nproperty list uchar int vertex_indices\nend_header\n" +
                                    floats({0, 0, 0, 1, 0, 0, 0, 1, 0}) + "\xff" + u32(0)},
-      {"unknown_format", "ply\nformat binary_middle_endian 1.0\nelement vertex 1\n" + xyz + floats({1, 2, 3})},
+      {"unknown_format",
+       "ply\nformat binary_middle_endian 1.0\nelement vertex 1\n" + xyz + floats({1, 2, 3})},
       {"no_end_header", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n1\n"},
   };
 }
@@ -169,7 +177,8 @@ void checkAll(const std::vector<HostileFile>& files, bool pcd) {
   for (const HostileFile& f : files) {
     const std::string path = writeFile(dir, "dw_hostile_" + f.name + (pcd ? ".pcd" : ".ply"), f.bytes);
     if (f.pcl == Pcl::Crashes || (f.pcl == Pcl::DiesInstrumented && kInstrumented))
-      EXPECT_EXIT(loadAndSearch(path, pcd), [](int status) { return !testing::ExitedWithCode(0)(status); }, "")
+      EXPECT_EXIT(
+          loadAndSearch(path, pcd), [](int status) { return !testing::ExitedWithCode(0)(status); }, "")
           << f.name << ": PCL no longer fails here; mark the case Pcl::Handles";
     else
       EXPECT_EXIT(loadAndSearch(path, pcd), ::testing::ExitedWithCode(0), "") << f.name;
@@ -179,6 +188,10 @@ void checkAll(const std::vector<HostileFile>& files, bool pcd) {
 
 }  // namespace
 
-TEST(PclFileBadInput, HostilePcdFilesAreRefusedOrSearchedExactly) { checkAll(hostilePcdFiles(), true); }
+TEST(PclFileBadInput, HostilePcdFilesAreRefusedOrSearchedExactly) {
+  checkAll(hostilePcdFiles(), true);
+}
 
-TEST(PclFileBadInput, HostilePlyFilesAreRefusedOrSearchedExactly) { checkAll(hostilePlyFiles(), false); }
+TEST(PclFileBadInput, HostilePlyFilesAreRefusedOrSearchedExactly) {
+  checkAll(hostilePlyFiles(), false);
+}
