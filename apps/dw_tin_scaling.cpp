@@ -158,9 +158,11 @@ int main(int argc, char** argv) {
                 n_gen ? "synthetic" : las_path.c_str(),
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t_in).count(),
                 std::thread::hardware_concurrency());
-    std::printf("%7s %6s %8s %8s %7s %7s %6s %7s %7s %7s %6s %6s %8s %s\n", "threads", "strips", "wall_s",
-                "cpu_s", "speedup", "B/point", "prep_s", "strip_s", "maxstr", "wait_s", "merge", "out_s",
-                "band_pts", "checksum");
+    // merge: merging left after the last strip; mwork: all merges' times added up (mostly overlapped
+    // with the strips).
+    std::printf("%7s %6s %8s %8s %7s %7s %6s %7s %7s %7s %6s %6s %6s %8s %s\n", "threads", "strips", "wall_s",
+                "cpu_s", "speedup", "B/point", "prep_s", "strip_s", "maxstr", "wait_s", "merge", "mwork",
+                "out_s", "band_pts", "checksum");
 
     std::vector<Run> runs;
     for (const unsigned t : threads)
@@ -200,10 +202,10 @@ int main(int argc, char** argv) {
         runs.push_back(best);
         const Run& b = runs.back();
         std::printf(
-            "%7u %6zu %8.3f %8.3f %7.2f %7.1f %6.3f %7.3f %7.3f %7.3f %6.3f %6.3f %8zu %016llx%s\n", t,
+            "%7u %6zu %8.3f %8.3f %7.2f %7.1f %6.3f %7.3f %7.3f %7.3f %6.3f %6.3f %6.3f %8zu %016llx%s\n", t,
             b.stats.strips, b.wall, b.cpu, runs.front().wall / b.wall, b.bytes_per_point, b.stats.prepare_s,
-            b.stats.strips_s, b.stats.strip_max_s, b.stats.fill_wait_s, b.stats.merge_s, b.stats.output_s,
-            b.stats.merge_points, static_cast<unsigned long long>(b.checksum),
+            b.stats.strips_s, b.stats.strip_max_s, b.stats.fill_wait_s, b.stats.merge_s, b.stats.merge_work_s,
+            b.stats.output_s, b.stats.merge_points, static_cast<unsigned long long>(b.checksum),
             b.checksum == runs.front().checksum && b.triangles == runs.front().triangles ? ""
                                                                                          : "  DIFFERENT");
         std::fflush(stdout);

@@ -37,29 +37,9 @@ namespace {
 
 using Points = std::vector<dw::Vec3f>;
 
-// Distinct points in Morton order around their centroid: what buildDelaunayGraph gives the builder.
-Points prepare(std::vector<dw::Vec3f> p) {
-  if (p.empty()) return p;
-  float lo[3] = {p[0].x, p[0].y, p[0].z}, hi[3] = {lo[0], lo[1], lo[2]};
-  for (const auto& q : p) {
-    lo[0] = std::min(lo[0], q.x), lo[1] = std::min(lo[1], q.y), lo[2] = std::min(lo[2], q.z);
-    hi[0] = std::max(hi[0], q.x), hi[1] = std::max(hi[1], q.y), hi[2] = std::max(hi[2], q.z);
-  }
-  const double ext = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-30f});
-  auto cell = [&](float v, int k) { return std::uint32_t((double(v) - lo[k]) / ext * 2097151.0); };
-  std::vector<std::pair<std::uint64_t, dw::Vec3f>> kv(p.size());
-  for (std::size_t i = 0; i < p.size(); ++i)
-    kv[i] = {dw::mortonKey(cell(p[i].x, 0), cell(p[i].y, 1), cell(p[i].z, 2)), p[i]};
-  std::sort(kv.begin(), kv.end(), [](const auto& a, const auto& b) {
-    if (a.first != b.first) return a.first < b.first;
-    return std::tie(a.second.x, a.second.y, a.second.z) < std::tie(b.second.x, b.second.y, b.second.z);
-  });
-  Points out;
-  out.reserve(kv.size());
-  for (const auto& e : kv)
-    if (out.empty() || out.back().x != e.second.x || out.back().y != e.second.y || out.back().z != e.second.z)
-      out.push_back(e.second);
-  return out;
+// Distinct points in Morton order: what buildDelaunayGraph gives the builder.
+Points prepare(const std::vector<dw::Vec3f>& p) {
+  return dw::mortonSortedDistinct(p);
 }
 
 Points uniform(std::size_t n) {
@@ -67,7 +47,7 @@ Points uniform(std::size_t n) {
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   Points p(n);
   for (auto& q : p) q = {u(rng), u(rng), u(rng)};
-  return prepare(std::move(p));
+  return prepare(p);
 }
 
 // ASCII PLY vertices (x y z first), read through `gzip -dc` for .gz files so that no zlib is needed.
@@ -95,7 +75,7 @@ Points loadPly(const std::string& path) {
   for (std::size_t i = 0; i < n; ++i)
     p.push_back(
         {float(xyz[3 * i] - c[0] / n), float(xyz[3 * i + 1] - c[1] / n), float(xyz[3 * i + 2] - c[2] / n)});
-  return prepare(std::move(p));
+  return prepare(p);
 }
 
 const Points& dataset(const std::string& name) {
@@ -241,8 +221,10 @@ void registerAll() {
   std::vector<std::string> names{"uniform_100k", "uniform_1M", "dragon_437k"};
   if (big) names.push_back("uniform_4M");
   for (const std::string& name : names) {
-    std::vector<unsigned> threads{1};
-    if (hw > 1) threads.push_back(hw);
+    // 1 and 2 threads (the 1 -> 2 ratio, also on a 2-core machine), then doubling up to all.
+    std::vector<unsigned> threads{1, 2};
+    for (unsigned t = 4; t < hw; t *= 2) threads.push_back(t);
+    if (hw > 2) threads.push_back(hw);
     for (unsigned t : threads)
       benchmark::RegisterBenchmark(("incremental/" + name + "/threads:" + std::to_string(t)).c_str(),
                                    benchIncremental, name, t)

@@ -4,6 +4,8 @@
 # parallel TIN's thread scaling on synthetic airborne tiles generated there (never carried). Logs go to
 # $OUT (or ./out).
 #   usage: scripts/device_tin_scaling.sh [SIZE...]     (default: 2.1M 10M 21M)
+#   DW_TIN_SWEEP=1: instead of the two-core and strip-count runs, sweep the strip count on 16 threads
+#   for every size (to choose the automatic count).
 set -uo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 OUT=${OUT:-$ROOT/out}
@@ -30,6 +32,13 @@ for n in "${SIZES[@]}"; do
   echo "== $n points, 1-16 threads (automatic strips), best of 3"
   timeout 200 "$S" -n "$n" --threads 1,2,4,8,16 --repeats 3 2>&1 | tee "$OUT/tin_scaling_$n.txt" || rc=1
 done
+if [ "${DW_TIN_SWEEP:-0}" = 1 ]; then
+  for n in "${SIZES[@]}"; do
+    echo "== $n points, 16 threads, strip counts, best of 3"
+    timeout 100 "$S" -n "$n" --threads 16 --strips 0,16,48,64 --repeats 3 2>&1 | tee "$OUT/tin_sweep_$n.txt" || rc=1
+  done
+  exit $rc
+fi
 # Two otherwise idle cores of the device: the 1 -> 2 thread ratio without other users' load.
 for n in 10M 21M; do
   echo "== $n points on 2 cores (taskset -c 2,3), best of 2"

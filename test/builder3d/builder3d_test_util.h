@@ -11,7 +11,9 @@
 #include <utility>
 #include <vector>
 
+#include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
 #include "pcl_delaunay_walk/core/graph_builder.h"
+#include "pcl_delaunay_walk/core/space_filling_curve.h"
 #include "pcl_delaunay_walk/core/types.h"
 
 namespace b3d_test {
@@ -32,6 +34,13 @@ inline Edges normalise(Edges e) {
   std::sort(e.begin(), e.end());
   e.erase(std::unique(e.begin(), e.end()), e.end());
   return e;
+}
+
+/// The edges of a kernel's triangulation, normalised (extracted on `threads` threads).
+inline Edges kernelEdges(const dw::builder3d::DelaunayKernel3D& k, unsigned threads = 1) {
+  Edges all;
+  for (auto& c : k.edgeChunks(threads)) all.insert(all.end(), c.begin(), c.end());
+  return normalise(all);
 }
 
 /// Keeps the first copy of every exact duplicate (the builders' contract wants distinct points).
@@ -116,6 +125,12 @@ inline std::vector<dw::Vec3f> toVec3f(const std::vector<double>& xyz) {
   for (std::size_t i = 0; i < p.size(); ++i)
     p[i] = {float(xyz[3 * i] - c[0]), float(xyz[3 * i + 1] - c[1]), float(xyz[3 * i + 2] - c[2])};
   return distinct(p);
+}
+
+/// The points in Morton order (ids follow a space-filling curve, as buildDelaunayGraph hands them to
+/// the builders: blocks and parallel cells are compact only then). The inputs here are distinct.
+inline std::vector<dw::Vec3f> mortonSorted(const std::vector<dw::Vec3f>& p) {
+  return dw::mortonSortedDistinct(p);
 }
 
 }  // namespace b3d_test

@@ -8,29 +8,11 @@
 #include "builder3d/builder3d_test_util.h"
 #include "pcl_delaunay_walk/core/builder3d/block_parallel_builder.h"
 #include "pcl_delaunay_walk/core/point_file.h"
-#include "pcl_delaunay_walk/core/space_filling_curve.h"
 
 namespace {
 
-// Blocks are id ranges, so the ids must be in a space-filling-curve order (as buildDelaunayGraph
-// hands them over) for blocks to be compact.
-std::vector<dw::Vec3f> mortonSorted(std::vector<dw::Vec3f> p) {
-  float lo[3] = {p[0].x, p[0].y, p[0].z}, hi[3] = {lo[0], lo[1], lo[2]};
-  for (const auto& q : p) {
-    const float c[3] = {q.x, q.y, q.z};
-    for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], c[k]), hi[k] = std::max(hi[k], c[k]);
-  }
-  const double ext = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
-  auto cell = [&](float v, int k) { return std::uint32_t((double(v) - lo[k]) / ext * 2097151.0); };
-  std::vector<std::pair<std::uint64_t, dw::Vec3f>> kv;
-  for (const auto& q : p) kv.push_back({dw::mortonKey(cell(q.x, 0), cell(q.y, 1), cell(q.z, 2)), q});
-  std::stable_sort(kv.begin(), kv.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  for (std::size_t i = 0; i < p.size(); ++i) p[i] = kv[i].second;
-  return p;
-}
-
 void expectSameForAnyBlockCount(const std::vector<dw::Vec3f>& unsorted, const std::string& what) {
-  const auto pts = mortonSorted(unsorted);
+  const auto pts = b3d_test::mortonSorted(unsorted);
   const auto ref = b3d_test::normalise(dw::builder3d::blockParallelDelaunayEdges(pts, 1));
   ASSERT_GT(ref.size(), pts.size());
   for (unsigned blocks : {2u, 3u, 5u}) {
@@ -58,7 +40,7 @@ TEST(BlockParallel, Torus) {
 }
 TEST(BlockParallel, SphereFallsBackToSequential) {
   // Every point is on the hull: blocks would each insert all of them, so the builder goes sequential.
-  const auto pts = mortonSorted(b3d_test::sphereSurface(5000, 44));
+  const auto pts = b3d_test::mortonSorted(b3d_test::sphereSurface(5000, 44));
   dw::builder3d::BlockBuildStats stats;
   const auto e = dw::builder3d::blockParallelDelaunayEdges(pts, 3, &stats);
   EXPECT_EQ(stats.blocks, 1u);
@@ -72,7 +54,7 @@ TEST(BlockParallel, RealScan) {
 }
 
 TEST(BlockParallel, BuilderEntryPointIsThreadCountInvariant) {
-  const auto pts = mortonSorted(b3d_test::uniformCube(60000, 45));
+  const auto pts = b3d_test::mortonSorted(b3d_test::uniformCube(60000, 45));
   dw::BuildOptions one, many;
   one.num_threads = 1;
   many.num_threads = 2;  // 60k points: two blocks of at least 25k

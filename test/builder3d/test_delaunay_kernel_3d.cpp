@@ -15,11 +15,7 @@ namespace {
 using b3d_test::Edges;
 using dw::builder3d::DelaunayKernel3D;
 
-Edges kernelEdges(const DelaunayKernel3D& k, unsigned threads) {
-  Edges all;
-  for (auto& c : k.edgeChunks(threads)) all.insert(all.end(), c.begin(), c.end());
-  return all;
-}
+using b3d_test::kernelEdges;
 
 Edges buildWithOrder(const std::vector<dw::Vec3f>& pts, const std::vector<dw::index_t>& order,
                      bool check = true) {

@@ -69,24 +69,29 @@ void parallelFor(std::size_t n, unsigned workers, Body&& body) {
     if (e) std::rethrow_exception(e);
 }
 
+/// Calls fn(i) for every i < count in order on the calling thread, and rethrows the first exception
+/// once all have run: the one-thread form of the parallel loops' contract.
+template <typename F>
+void runEachInOrder(std::size_t count, F&& fn) {
+  std::exception_ptr error;
+  for (std::size_t i = 0; i < count; ++i) {
+    try {
+      fn(i);
+    } catch (...) {
+      if (!error) error = std::current_exception();
+    }
+  }
+  if (error) std::rethrow_exception(error);
+}
+
 /// Calls fn(i) for every i < count on up to `threads` threads (0: hardware concurrency), each thread
 /// taking the next unclaimed index when it finishes one, so uneven tasks balance. Rethrows the first
 /// exception thrown (the remaining tasks still run) after all threads have finished.
 template <typename F>
 void parallelForDynamic(std::size_t count, unsigned threads, F&& fn) {
   const unsigned workers = static_cast<unsigned>(std::min<std::size_t>(resolveThreads(threads), count));
+  if (workers <= 1) return runEachInOrder(count, fn);
   std::exception_ptr error;
-  if (workers <= 1) {
-    for (std::size_t i = 0; i < count; ++i) {
-      try {
-        fn(i);
-      } catch (...) {
-        if (!error) error = std::current_exception();
-      }
-    }
-    if (error) std::rethrow_exception(error);
-    return;
-  }
   std::atomic<std::size_t> next{0};
   std::mutex error_mutex;
   auto body = [&]() {

@@ -3,9 +3,12 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
+#include <exception>
 #include <string>
 #include <thread>
 
+#include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/predicates_3d.h"
 
 namespace dw {
@@ -111,6 +114,11 @@ void DelaunayKernel3D::initialTetrahedron(index_t a, index_t b, index_t c, index
 
 void DelaunayKernel3D::build(const index_t* order, std::size_t n,
                              const std::function<void(double)>& progress) {
+  build(order, n, progress, {}, 1);
+}
+
+void DelaunayKernel3D::build(const index_t* order, std::size_t n, const std::function<void(double)>& progress,
+                             const std::vector<std::size_t>& batch_begin, unsigned num_threads) {
   if (points_ == nullptr && n > 0) throw Error("dw::DelaunayKernel3D::build: setPoints() was not called");
   tet_v_.clear();
   tet_n_.clear();
@@ -119,6 +127,7 @@ void DelaunayKernel3D::build(const index_t* order, std::size_t n,
   birth_.clear();
   num_inserted_ = 0;
   stats_ = Stats{};
+  seq_ = Worker{};
   if (n < 4) throw Error("dw::DelaunayKernel3D::build: a 3D triangulation needs at least 4 points");
   for (std::size_t i = 0; i < n; ++i)
     if (order[i] >= num_points_) throw Error("dw::DelaunayKernel3D::build: vertex id out of range");
@@ -155,13 +164,148 @@ void DelaunayKernel3D::build(const index_t* order, std::size_t n,
   initialTetrahedron(order[0], order[1], order[kc], order[kd]);
   num_inserted_ = 4;
 
+  // Batches (BRIO rounds): each is inserted by insertParallel, which runs threads when it is big
+  // enough; positions before the first batch go in one by one.
+  std::vector<std::size_t> begin;
+  for (std::size_t b : batch_begin)
+    if (b > 2 && b < n && (begin.empty() || b > begin.back())) begin.push_back(b);
+  begin.push_back(n);
   const std::size_t report_every = std::max<std::size_t>(1, n / 100);
-  for (std::size_t i = 2; i < n; ++i) {
+  for (std::size_t i = 2; i < begin.front(); ++i) {
     if (i == kc || i == kd) continue;
     insert(order[i]);
     if (progress && i % report_every == 0) progress(static_cast<double>(i) / n);
   }
+  std::vector<index_t> batch;
+  for (std::size_t r = 0; r + 1 < begin.size(); ++r) {
+    batch.clear();
+    for (std::size_t i = begin[r]; i < begin[r + 1]; ++i)
+      if (i != kc && i != kd) batch.push_back(order[i]);
+    insertParallel(batch.data(), batch.size(), num_threads);
+    if (progress) progress(static_cast<double>(begin[r + 1]) / n);
+  }
   if (progress) progress(1.0);
+}
+
+void DelaunayKernel3D::Stats::add(const Stats& o) {
+  walk_steps += o.walk_steps;
+  conflict_tests += o.conflict_tests;
+  created_tets += o.created_tets;
+  fallback_locations += o.fallback_locations;
+  deferred += o.deferred;
+  parallel_passes += o.parallel_passes;
+  parallel_inserted += o.parallel_inserted;
+  parallel_seconds += o.parallel_seconds;
+  parallel_busy_max += o.parallel_busy_max;
+  parallel_busy_sum += o.parallel_busy_sum;
+}
+
+// The sequential insertion owns everything: no ownership checks, plain memory accesses.
+struct DelaunayKernel3D::Everything {
+  static constexpr bool kShared = false;
+  bool ownsVertex(index_t) const { return true; }
+};
+
+// The cells of one parallel pass: a k-d split of the pending points, one leaf per thread, each with
+// the same number of points. Nodes are {axis, split, child below, child at or above}; axis -1 marks a
+// leaf, whose `below` is the thread.
+struct DelaunayKernel3D::CellSplit {
+  struct Node {
+    int axis;
+    float split;
+    unsigned below, above;
+  };
+  std::vector<Node> nodes;
+
+  unsigned cellOf(const Vec3f& p) const {
+    unsigned i = 0;
+    while (nodes[i].axis >= 0) {
+      const float c = nodes[i].axis == 0 ? p.x : nodes[i].axis == 1 ? p.y : p.z;
+      i = c < nodes[i].split ? nodes[i].below : nodes[i].above;
+    }
+    return nodes[i].below;
+  }
+
+  // Splits ids[0..m) among threads [first, first + count) at depth `depth`; the axis order starts at
+  // `axis0`, so consecutive passes cut along different planes and the points deferred next to one
+  // pass's cuts lie inside the next pass's cells.
+  unsigned build(const Vec3f* points, index_t* ids, std::size_t m, unsigned first, unsigned count,
+                 unsigned depth, unsigned axis0) {
+    const unsigned me = static_cast<unsigned>(nodes.size());
+    nodes.push_back({-1, 0.0f, first, first});
+    if (count <= 1 || m < 2) return me;
+    const int axis = static_cast<int>((axis0 + depth) % 3);
+    auto coord = [&](index_t v) { return axis == 0 ? points[v].x : axis == 1 ? points[v].y : points[v].z; };
+    const unsigned left = count / 2;
+    std::size_t k = m * left / count;
+    std::nth_element(ids, ids + k, ids + m, [&](index_t a, index_t b) { return coord(a) < coord(b); });
+    const float split = coord(ids[k]);
+    // Points equal to the split value go above; keep the counts as even as the ties allow.
+    k = std::partition(ids, ids + m, [&](index_t v) { return coord(v) < split; }) - ids;
+    const unsigned below = build(points, ids, k, first, left, depth + 1, axis0);
+    const unsigned above = build(points, ids + k, m - k, first + left, count - left, depth + 1, axis0);
+    nodes[me] = {axis, split, below, above};
+    return me;
+  }
+};
+
+// A thread of a parallel pass owns the vertices in its cell, and the tetrahedra whose four vertices
+// it owns; the infinite vertex counts as everybody's. Only the owner changes a tetrahedron's vertices.
+// A thread writes a neighbour code only across a face whose vertices it owns, and two faces of one
+// tetrahedron always share a finite vertex, so every such code has one writer. Shared arrays are read
+// and written with relaxed atomics: plain moves on x86, but defined behaviour (and TSan-clean) where
+// a thread reads a foreign tetrahedron's vertices while its owner rewrites them.
+struct DelaunayKernel3D::Cell {
+  static constexpr bool kShared = true;
+  const CellSplit* split = nullptr;
+  const Vec3f* points = nullptr;
+  std::size_t n = 0;
+  unsigned me = 0;
+  bool ownsVertex(index_t v) const {
+    if (v >= n) return v == kInfinite;  // not kDead
+    return split->cellOf(points[v]) == me;
+  }
+};
+
+namespace {
+
+template <bool kShared>
+inline std::uint32_t load(const std::uint32_t& x) {
+  if constexpr (kShared) return __atomic_load_n(&x, __ATOMIC_RELAXED);
+  return x;
+}
+
+template <bool kShared>
+inline void store(std::uint32_t& x, std::uint32_t value) {
+  if constexpr (kShared)
+    __atomic_store_n(&x, value, __ATOMIC_RELAXED);
+  else
+    x = value;
+}
+
+inline unsigned nextRandom(std::uint32_t& rng) {
+  rng ^= rng << 13;
+  rng ^= rng >> 17;
+  rng ^= rng << 5;
+  return rng & 3u;
+}
+
+// A parallel pass gives up on a walk after this many steps (a foreign region changing underneath).
+constexpr std::uint64_t kSharedWalkGuard = 4096;
+// Fresh slots handed to a thread at a time.
+constexpr std::size_t kSlotChunk = 1024;
+
+}  // namespace
+
+template <class Owner>
+bool DelaunayKernel3D::ownsTet(index_t t, const Owner& own) const {
+  if constexpr (!Owner::kShared) {
+    return true;
+  } else {
+    for (unsigned k = 0; k < 4; ++k)
+      if (!own.ownsVertex(load<true>(tet_v_[4 * std::size_t(t) + k]))) return false;
+    return true;
+  }
 }
 
 index_t DelaunayKernel3D::locate(index_t v, index_t start) {
@@ -169,49 +313,70 @@ index_t DelaunayKernel3D::locate(index_t v, index_t start) {
   point(v, p);
   index_t t = start;
   if (t >= tet_v_.size() / 4 || tet_v_[4 * std::size_t(t)] == kDead) t = last_tet_;
-  {
-    const index_t* tv = &tet_v_[4 * std::size_t(t)];
-    for (unsigned k = 0; k < 4; ++k)
-      if (tv[k] == kInfinite)
-        t = tet_n_[4 * std::size_t(t) + k] >> 2;  // start from the finite side of the hull
+  if (t >= tet_v_.size() / 4 || tet_v_[4 * std::size_t(t)] == kDead) {
+    // After a parallel pass the remembered tetrahedron may be gone: any live one will do.
+    t = 0;
+    while (t + 1 < tet_v_.size() / 4 && tet_v_[4 * std::size_t(t)] == kDead) ++t;
   }
-  index_t prev = kNoTet;
   // The visibility walk terminates in a Delaunay triangulation; the guard only protects against a
   // corrupted structure and falls back to a scan that cannot loop.
   const std::uint64_t guard = 64 + 4 * static_cast<std::uint64_t>(tet_v_.size() / 4);
-  std::uint64_t steps = 0;
-  for (;;) {
-    if (++steps > guard) {
-      ++stats_.fallback_locations;
-      return locateByScan(v);
-    }
+  const index_t found = walkTo(p, t, seq_, Everything{}, guard);
+  stats_.walk_steps += seq_.stats.walk_steps;
+  seq_.stats.walk_steps = 0;
+  if (found != kNoTet) return found;
+  ++stats_.fallback_locations;
+  return locateByScan(v);
+}
+
+template <class Owner>
+index_t DelaunayKernel3D::walkTo(const double* p, index_t t, Worker& w, const Owner& own,
+                                 std::uint64_t guard) const {
+  // With a sharing owner: only through owned tetrahedra (stable under this thread). A walk that would
+  // leave them ends at a point whose cavity would not be owned either, almost always, so the caller
+  // defers the point at once.
+  if (!ownsTet(t, own)) return kNoTet;
+  index_t prev = kNoTet;
+  for (std::uint64_t steps = 0; steps < guard; ++steps) {
     const index_t* tv = &tet_v_[4 * std::size_t(t)];
-    if (tv[0] == kInfinite || tv[1] == kInfinite || tv[2] == kInfinite || tv[3] == kInfinite) return t;
+    unsigned infinite = 4;
+    for (unsigned k = 0; k < 4; ++k)
+      if (tv[k] == kInfinite) infinite = k;
+    if (infinite != 4) {
+      if (steps > 0) return t;  // beyond the hull: the cavity starts here
+      // A start on the hull: go to the finite side first (and test the way back like any face: the
+      // point may lie beyond this very facet).
+      const std::uint32_t nc = tet_n_[4 * std::size_t(t) + infinite];
+      if (!own.ownsVertex(load<Owner::kShared>(tet_v_[nc]))) return kNoTet;
+      t = nc >> 2;
+      continue;
+    }
     double q[4][3];
     for (unsigned k = 0; k < 4; ++k) point(tv[k], q[k]);
-    rng_ ^= rng_ << 13;
-    rng_ ^= rng_ >> 17;
-    rng_ ^= rng_ << 5;
-    const unsigned r = rng_ & 3u;
+    const unsigned r = nextRandom(w.rng);
     bool moved = false;
     for (unsigned k = 0; k < 4; ++k) {
       const unsigned f = (r + k) & 3u;
-      const index_t n = tet_n_[4 * std::size_t(t) + f] >> 2;
+      const std::uint32_t nc = tet_n_[4 * std::size_t(t) + f];
+      const index_t n = nc >> 2;
       if (n == prev) continue;
       const double* a = f == 0 ? p : q[0];
       const double* b = f == 1 ? p : q[1];
       const double* c = f == 2 ? p : q[2];
       const double* d = f == 3 ? p : q[3];
       if (predicates::orient3d(a, b, c, d) < 0.0) {
+        // n shares three owned vertices with t: it is owned when the fourth one is.
+        if (!own.ownsVertex(load<Owner::kShared>(tet_v_[nc]))) return kNoTet;
         prev = t;
         t = n;
         moved = true;
         break;
       }
     }
-    stats_.walk_steps += 1;
+    w.stats.walk_steps += 1;
     if (!moved) return t;
   }
+  return kNoTet;
 }
 
 index_t DelaunayKernel3D::locateByScan(index_t v) const {
@@ -264,9 +429,44 @@ bool DelaunayKernel3D::inConflict(index_t t, index_t v, const double* p) const {
 void DelaunayKernel3D::insert(index_t v) {
   if (!built()) throw Error("dw::DelaunayKernel3D::insert: build() first");
   if (v >= num_points_) throw Error("dw::DelaunayKernel3D::insert: vertex id out of range");
-  index_t t = locate(v, last_tet_);
+  seq_.last_tet = last_tet_;
+  seq_.stats = Stats{};
+  insertCore(v, seq_, Everything{});
+  last_tet_ = seq_.last_tet;
+  stats_.add(seq_.stats);
+}
+
+bool DelaunayKernel3D::takeSlots(Worker& w, std::size_t count) {
+  // The pass's slot pool is the recycled slots (pool_, sorted) followed by the fresh range
+  // [fresh_begin_, fresh_end_); threads take it in chunks as they need it.
+  const std::size_t recycled = pool_.size(), total = recycled + (fresh_end_ - fresh_begin_);
+  while (w.free.size() < count) {
+    const std::size_t first = __atomic_fetch_add(&pool_next_, kSlotChunk, __ATOMIC_RELAXED);
+    if (first >= total) return false;
+    for (std::size_t k = first; k < std::min(first + kSlotChunk, total); ++k)
+      w.free.push_back(k < recycled ? pool_[k] : static_cast<index_t>(fresh_begin_ + (k - recycled)));
+  }
+  return true;
+}
+
+index_t DelaunayKernel3D::takeSlot(Worker& w) {
+  const index_t t = w.free.back();  // takeSlots() made sure there is one
+  w.free.pop_back();
+  return t;
+}
+
+template <class Owner>
+bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
+  constexpr bool kShared = Owner::kShared;
   double p[3];
   point(v, p);
+  index_t t;
+  if constexpr (kShared) {
+    t = walkTo(p, w.last_tet, w, own, kSharedWalkGuard);
+    if (t == kNoTet || !ownsTet(t, own)) return false;
+  } else {
+    t = locate(v, w.last_tet);
+  }
   {
     // A walk that stops in a finite tetrahedron has v in its closed hull, hence strictly inside its
     // circumsphere unless v repeats a vertex. Check instead of trusting: a wrong root corrupts the mesh.
@@ -282,71 +482,95 @@ void DelaunayKernel3D::insert(index_t v) {
   }
 
   // Cavity: every tetrahedron whose (perturbed) circumsphere contains v; connected, found by BFS.
-  cavity_.clear();
-  stack_.clear();
-  outside_.clear();
-  boundary_.clear();
+  // Marks are set only on owned tetrahedra; a foreign neighbour is tested each time it is reached.
+  auto& cavity = w.cavity;
+  auto& boundary = w.boundary;
+  cavity.clear();
+  w.stack.clear();
+  w.outside.clear();
+  boundary.clear();
+  auto clearMarks = [&] {
+    for (index_t o : w.outside) mark_[o] = 0;
+    for (index_t c : cavity) mark_[c] = 0;
+  };
   mark_[t] = 1;
-  cavity_.push_back(t);
-  stack_.push_back(t);
-  while (!stack_.empty()) {
-    const index_t c = stack_.back();
-    stack_.pop_back();
+  cavity.push_back(t);
+  w.stack.push_back(t);
+  while (!w.stack.empty()) {
+    const index_t c = w.stack.back();
+    w.stack.pop_back();
     for (unsigned f = 0; f < 4; ++f) {
-      const std::uint32_t nc = tet_n_[4 * std::size_t(c) + f];
+      const std::uint32_t nc = load<kShared>(tet_n_[4 * std::size_t(c) + f]);
       const index_t n = nc >> 2;
-      std::uint8_t m = mark_[n];
-      if (m == 1) continue;
-      if (m == 0) {
-        ++stats_.conflict_tests;
+      // n shares face f's three owned vertices with c: it is owned when its fourth vertex is.
+      if (Owner::kShared && !own.ownsVertex(load<kShared>(tet_v_[nc]))) {
+        // Its vertices are stable: it shares this face with an owned tetrahedron, so nobody owns it.
+        ++w.stats.conflict_tests;
         if (inConflict(n, v, p)) {
-          mark_[n] = 1;
-          cavity_.push_back(n);
-          stack_.push_back(n);
-          continue;
+          clearMarks();
+          return false;
         }
-        mark_[n] = 2;
-        outside_.push_back(n);
+      } else {
+        const std::uint8_t m = mark_[n];
+        if (m == 1) continue;
+        if (m == 0) {
+          ++w.stats.conflict_tests;
+          if (inConflict(n, v, p)) {
+            mark_[n] = 1;
+            cavity.push_back(n);
+            w.stack.push_back(n);
+            continue;
+          }
+          mark_[n] = 2;
+          w.outside.push_back(n);
+        }
       }
       BoundaryFace bf;
       std::copy(&tet_v_[4 * std::size_t(c)], &tet_v_[4 * std::size_t(c)] + 4, bf.v);
       bf.v[f] = v;
       bf.outer = nc;
       bf.face = f;
-      boundary_.push_back(bf);
+      boundary.push_back(bf);
     }
   }
-  for (index_t o : outside_) mark_[o] = 0;
-  for (index_t c : cavity_) mark_[c] = 0;
+  clearMarks();
+  if constexpr (kShared) {
+    if (boundary.size() > cavity.size() && !takeSlots(w, boundary.size() - cavity.size())) return false;
+  }
 
   // Link table for the faces through v: each cavity-boundary edge (a, b) is shared by exactly two
   // boundary triangles, so the two new tetrahedra on it find each other by the key (a, b).
-  const std::size_t edges = boundary_.size() * 3 / 2 + 1;
+  const std::size_t edges = boundary.size() * 3 / 2 + 1;
   unsigned bits = 6;
   while ((std::size_t(1) << bits) < 2 * edges) ++bits;
-  if (link_key_.size() < (std::size_t(1) << bits)) {
-    link_key_.assign(std::size_t(1) << bits, 0);
-    link_val_.assign(std::size_t(1) << bits, 0);
-    link_gen_.assign(std::size_t(1) << bits, 0);
-    generation_ = 0;
+  if (w.link_key.size() < (std::size_t(1) << bits)) {
+    w.link_key.assign(std::size_t(1) << bits, 0);
+    w.link_val.assign(std::size_t(1) << bits, 0);
+    w.link_gen.assign(std::size_t(1) << bits, 0);
+    w.generation = 0;
   } else {
     bits = 0;
-    while ((std::size_t(1) << bits) < link_key_.size()) ++bits;
+    while ((std::size_t(1) << bits) < w.link_key.size()) ++bits;
   }
-  if (++generation_ == 0) {
-    std::fill(link_gen_.begin(), link_gen_.end(), 0u);
-    generation_ = 1;
+  if (++w.generation == 0) {
+    std::fill(w.link_gen.begin(), w.link_gen.end(), 0u);
+    w.generation = 1;
   }
-  const std::size_t mask = link_key_.size() - 1;
+  const std::size_t mask = w.link_key.size() - 1;
 
   index_t nt = 0;
-  for (std::size_t k = 0; k < boundary_.size(); ++k) {
-    const BoundaryFace& bf = boundary_[k];
-    nt = k < cavity_.size() ? cavity_[k] : newTet();
+  for (std::size_t k = 0; k < boundary.size(); ++k) {
+    const BoundaryFace& bf = boundary[k];
+    if (k < cavity.size())
+      nt = cavity[k];
+    else if constexpr (kShared)
+      nt = takeSlot(w);
+    else
+      nt = newTet();
     if (track_births_) birth_[nt] = static_cast<std::uint32_t>(num_inserted_ + 1);
-    std::copy(bf.v, bf.v + 4, &tet_v_[4 * std::size_t(nt)]);
-    tet_n_[4 * std::size_t(nt) + bf.face] = bf.outer;
-    tet_n_[bf.outer] = 4 * nt + bf.face;
+    for (unsigned j = 0; j < 4; ++j) store<kShared>(tet_v_[4 * std::size_t(nt) + j], bf.v[j]);
+    store<kShared>(tet_n_[4 * std::size_t(nt) + bf.face], bf.outer);
+    store<kShared>(tet_n_[bf.outer], 4 * nt + bf.face);
     for (unsigned j = 0; j < 4; ++j) {
       if (j == bf.face) continue;
       unsigned pa, pb;
@@ -354,29 +578,170 @@ void DelaunayKernel3D::insert(index_t v) {
       const std::uint64_t key = edgeKey(bf.v[pa], bf.v[pb]);
       std::size_t s = hashKey(key, bits);
       for (;;) {
-        if (link_gen_[s] != generation_) {
-          link_gen_[s] = generation_;
-          link_key_[s] = key;
-          link_val_[s] = 4 * nt + j;
+        if (w.link_gen[s] != w.generation) {
+          w.link_gen[s] = w.generation;
+          w.link_key[s] = key;
+          w.link_val[s] = 4 * nt + j;
           break;
         }
-        if (link_key_[s] == key) {
-          const std::uint32_t other = link_val_[s];
-          tet_n_[4 * std::size_t(nt) + j] = other;
-          tet_n_[other] = 4 * nt + j;
+        if (w.link_key[s] == key) {
+          const std::uint32_t other = w.link_val[s];
+          store<kShared>(tet_n_[4 * std::size_t(nt) + j], other);
+          store<kShared>(tet_n_[other], 4 * nt + j);
           break;
         }
         s = (s + 1) & mask;
       }
     }
   }
-  stats_.created_tets += boundary_.size();
-  for (std::size_t k = boundary_.size(); k < cavity_.size(); ++k) {
-    tet_v_[4 * std::size_t(cavity_[k])] = kDead;
-    free_.push_back(cavity_[k]);
+  w.stats.created_tets += boundary.size();
+  for (std::size_t k = boundary.size(); k < cavity.size(); ++k) {
+    store<kShared>(tet_v_[4 * std::size_t(cavity[k])], kDead);
+    if constexpr (kShared)
+      w.free.push_back(cavity[k]);
+    else
+      free_.push_back(cavity[k]);
   }
-  last_tet_ = nt;
-  ++num_inserted_;
+  w.last_tet = nt;
+  if constexpr (kShared)
+    ++w.stats.parallel_inserted;
+  else
+    ++num_inserted_;
+  return true;
+}
+
+void DelaunayKernel3D::insertParallel(const index_t* ids, std::size_t m, unsigned num_threads) {
+  if (!built()) throw Error("dw::DelaunayKernel3D::insertParallel: build() first");
+  if (track_births_) throw Error("dw::DelaunayKernel3D::insertParallel: not with trackBirths(true)");
+  for (std::size_t i = 0; i < m; ++i)
+    if (ids[i] >= num_points_) throw Error("dw::DelaunayKernel3D::insertParallel: vertex id out of range");
+  std::vector<index_t> batch(ids, ids + m);
+  std::sort(batch.begin(), batch.end());
+  // Below a few thousand points per thread the cells are thin next to the cavities and most attempts
+  // would be deferred: small batches use fewer threads. When a pass stalls (under a quarter of its
+  // points went in) the next one uses half the threads, whose cells are twice as big.
+  constexpr std::size_t kMinPerThread = 2048;
+  constexpr unsigned kMaxPasses = 12;
+  std::vector<index_t> pending = batch;
+  unsigned threads = static_cast<unsigned>(std::min<std::size_t>(num_threads, m / kMinPerThread));
+  for (unsigned pass = 0; pass < kMaxPasses && threads > 1; ++pass) {
+    if (pending.size() < threads * kMinPerThread / 4)
+      threads = static_cast<unsigned>(pending.size() * 4 / kMinPerThread);
+    if (threads < 2) break;
+    const std::size_t before = pending.size();
+    runParallelPass(pending, threads, pass);
+    if (pending.size() * 4 > before * 3) threads /= 2;
+  }
+  std::sort(pending.begin(), pending.end());
+  for (index_t v : pending) insert(v);
+}
+
+void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned threads, unsigned pass) {
+  const auto start = std::chrono::steady_clock::now();
+  CellSplit split;
+  {
+    std::vector<index_t> ids(pending);
+    split.build(points_, ids.data(), ids.size(), 0, threads, 0, pass % 3);
+  }
+  std::vector<Cell> own(threads);
+  std::vector<Worker> workers(threads);
+  for (unsigned i = 0; i < threads; ++i) own[i] = {&split, points_, num_points_, i};
+  // In id order per thread: ids follow a space-filling curve, so consecutive walks are short.
+  for (index_t v : pending) workers[split.cellOf(points_[v])].deferred.push_back(v);  // the to-do lists
+
+  // Slots: the recycled ones first (sorted, so that a chunk is one part of the arrays and two threads
+  // rarely write one cache line), then fresh ones for the rest of the growth (about 6.7 per point).
+  // Counting the recycled ones keeps repeated passes from inflating the arrays.
+  const std::size_t used = tet_v_.size() / 4;
+  const std::size_t growth = 7 * pending.size() + 2 * kSlotChunk * threads;
+  const std::size_t fresh = (growth > free_.size() ? growth - free_.size() : 0) + kSlotChunk * threads;
+  if (4 * (used + fresh) > tet_v_.capacity()) {
+    const std::size_t cap = used + fresh + (used + fresh) / 8;
+    tet_v_.reserve(4 * cap);
+    tet_n_.reserve(4 * cap);
+    mark_.reserve(cap);
+  }
+  tet_v_.resize(4 * (used + fresh), kDead);
+  tet_n_.resize(4 * (used + fresh), 0);
+  mark_.resize(used + fresh, 0);
+  pool_.swap(free_);
+  free_.clear();
+  std::sort(pool_.begin(), pool_.end());
+  pool_next_ = 0;
+  fresh_begin_ = used;
+  fresh_end_ = used + fresh;
+
+  // Each thread starts from an owned tetrahedron holding one of its points, found by walks that only
+  // read (this phase ends before any thread writes); its list is rotated to begin at that point.
+  // Points at the start of a list lie near a cell's boundary, so the tries are spread over the list.
+  parallelFor(threads, threads, [&](std::size_t b, std::size_t e, unsigned) {
+    for (std::size_t i = b; i < e; ++i) {
+      Worker& w = workers[i];
+      w.rng = 0x9E3779B9u ^ static_cast<std::uint32_t>(i) * 0x85EBCA6Bu;
+      w.last_tet = kNoTet;
+      std::vector<index_t>& todo = w.deferred;
+      constexpr std::size_t kTries = 16;
+      index_t t = last_tet_;
+      for (std::size_t k = 0; k < kTries && k < todo.size(); ++k) {
+        const std::size_t j = (todo.size() / 2 + k * todo.size() / kTries) % todo.size();
+        double p[3];
+        point(todo[j], p);
+        t = walkTo(p, t, w, Everything{}, std::uint64_t(1) << 20);
+        if (t == kNoTet) break;
+        if (ownsTet(t, own[i])) {
+          w.last_tet = t;
+          std::rotate(todo.begin(), todo.begin() + j, todo.end());
+          break;
+        }
+      }
+    }
+  });
+
+  // A worker that fails (a duplicate point) stops; the others finish, and the slots and counts of all
+  // are merged before the error is passed on, so the triangulation stays valid and consistent.
+  std::vector<std::exception_ptr> errors(threads);
+  parallelFor(threads, threads, [&](std::size_t b, std::size_t e, unsigned) {
+    for (std::size_t i = b; i < e; ++i) {
+      Worker& w = workers[i];
+      if (w.last_tet == kNoTet) continue;
+      std::vector<index_t> todo;
+      todo.swap(w.deferred);
+      const auto busy_start = std::chrono::steady_clock::now();
+      try {
+        for (index_t v : todo)
+          if (!insertCore(v, w, own[i])) {
+            w.deferred.push_back(v);
+            ++w.stats.deferred;
+          }
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+      w.stats.parallel_busy_sum =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - busy_start).count();
+    }
+  });
+
+  pending.clear();
+  double busy_max = 0.0;
+  for (auto& w : workers) {
+    busy_max = std::max(busy_max, w.stats.parallel_busy_sum);
+    pending.insert(pending.end(), w.deferred.begin(), w.deferred.end());
+    free_.insert(free_.end(), w.free.begin(), w.free.end());
+    num_inserted_ += w.stats.parallel_inserted;
+    stats_.add(w.stats);
+    if (w.stats.parallel_inserted > 0) last_tet_ = w.last_tet;
+  }
+  // What nobody took of the pool goes back to the free list.
+  const std::size_t recycled = pool_.size(), total = recycled + (fresh_end_ - fresh_begin_);
+  for (std::size_t k = std::min(pool_next_, total); k < total; ++k)
+    free_.push_back(k < recycled ? pool_[k] : static_cast<index_t>(fresh_begin_ + (k - recycled)));
+  std::vector<index_t>().swap(pool_);
+  pool_next_ = fresh_begin_ = fresh_end_ = 0;
+  ++stats_.parallel_passes;
+  stats_.parallel_busy_max += busy_max;
+  stats_.parallel_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (auto& e : errors)
+    if (e) std::rethrow_exception(e);
 }
 
 DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgeChunks(unsigned num_threads) const {
@@ -410,9 +775,7 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::releaseIntoEdgeChunks(unsigned nu
   std::vector<std::uint8_t>().swap(mark_);
   std::vector<index_t>().swap(free_);
   std::vector<std::uint32_t>().swap(birth_);
-  std::vector<std::uint64_t>().swap(link_key_);
-  std::vector<std::uint32_t>().swap(link_val_);
-  std::vector<std::uint32_t>().swap(link_gen_);
+  seq_ = Worker{};
   std::vector<index_t> tets;
   tets.swap(tet_v_);
   num_inserted_ = 0;
@@ -423,34 +786,43 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const std::vector<in
                                                             unsigned num_threads, std::size_t first,
                                                             std::size_t last) {
   // Every edge (a, b), a < b, lies in ~5 finite tetrahedra. Rather than walking each vertex's star
-  // (random access into the tetrahedra: measured 5 s for 1M points), stream over the tetrahedra once
-  // to count, per smaller endpoint a, the edge occurrences, then once per range of a whose occurrences
-  // fit a bounded buffer: bucket the b's by a and drop repeats with a stamp. Sequential reads only,
-  // memory bounded by the buffer (about 16 bytes per point) instead of all ~40 occurrences per point.
+  // (random access into the tetrahedra: measured 5 s for 1M points), the tetrahedra are streamed:
+  //  1. count, per smaller endpoint a, the edge occurrences (in parallel, atomic counters), and cut
+  //     [first, last) into ranges of a whose occurrences fit a bounded buffer;
+  //  2. list, per range, the tetrahedra that have an edge owned there (a tetrahedron has three
+  //     possible smaller endpoints; with Morton ids they are nearly always in one range);
+  //  3. per range, in parallel: bucket the b's by a and drop repeats with a stamp.
+  // Memory stays near the buffers (about 16 bytes per point) plus the lists (about one id per
+  // tetrahedron), instead of all ~40 occurrences per point.
   if (num_threads == 0) num_threads = 1;
   EdgeChunks chunks(num_threads);
-  if (tet_v_.empty()) return chunks;
+  last = std::min(last, n);
+  if (tet_v_.empty() || first >= last) return chunks;
   const std::size_t nt = tet_v_.size() / 4;
 
   // Pair (i, j) of a tetrahedron's vertices; the smaller endpoint owns the occurrence. min/max
   // compile to conditional moves: a sorting network's branches mispredicted badly here.
   static constexpr unsigned kPairs[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  auto live = [&](const index_t* tv) {
+    return std::max(std::max(tv[0], tv[1]), std::max(tv[2], tv[3])) < kDead;
+  };
+  const unsigned workers = workerCount(nt, num_threads, 1 << 16);
 
-  // Occurrences per smaller endpoint a in [first, last); edges of infinite tetrahedra also lie in
-  // finite ones. `occurrences` is indexed by a - first.
-  last = std::min(last, n);
-  if (first >= last) return chunks;
+  // 1. Occurrences per smaller endpoint a in [first, last) (edges of infinite tetrahedra also lie in
+  // finite ones); `occurrences` is indexed by a - first.
   std::vector<std::uint32_t> occurrences(last - first + 1, 0);
-  for (index_t t = 0; t < nt; ++t) {
-    const index_t* tv = &tet_v_[4 * std::size_t(t)];
-    if (std::max(std::max(tv[0], tv[1]), std::max(tv[2], tv[3])) >= kDead) continue;
-    for (const auto& pr : kPairs) {
-      const index_t a = std::min(tv[pr[0]], tv[pr[1]]);
-      if (a >= first && a < last) ++occurrences[a - first];
+  parallelFor(nt, workers, [&](std::size_t tb, std::size_t te, unsigned) {
+    for (std::size_t t = tb; t < te; ++t) {
+      const index_t* tv = &tet_v_[4 * t];
+      if (!live(tv)) continue;
+      for (const auto& pr : kPairs) {
+        const index_t a = std::min(tv[pr[0]], tv[pr[1]]);
+        if (a >= first && a < last) __atomic_fetch_add(&occurrences[a - first], 1u, __ATOMIC_RELAXED);
+      }
     }
-  }
+  });
   // Ranges of a with at most `budget` occurrences each (a single vertex may exceed it alone).
-  const std::size_t budget = std::max<std::size_t>(std::size_t(1) << 20, 4 * (last - first) / num_threads);
+  const std::size_t budget = std::max<std::size_t>(std::size_t(1) << 18, 4 * (last - first) / num_threads);
   std::vector<std::size_t> range_start{first};
   {
     std::size_t acc = 0;
@@ -464,30 +836,89 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const std::vector<in
     range_start.push_back(last);
   }
   const std::size_t num_ranges = range_start.size() - 1;
+  auto rangeOf = [&](index_t a) {
+    return static_cast<std::size_t>(std::upper_bound(range_start.begin(), range_start.end(), a) -
+                                    range_start.begin()) -
+           1;
+  };
 
+  // 2. Per range, the tetrahedra with an edge owned there: counted per worker slice, then filled at
+  // offsets that keep each range's list in tetrahedron order.
+  auto rangesOf = [&](const index_t* tv, std::size_t out[3]) {
+    const index_t vmin = std::min(std::min(tv[0], tv[1]), std::min(tv[2], tv[3]));
+    const index_t vmax = std::max(std::max(tv[0], tv[1]), std::max(tv[2], tv[3]));
+    if (vmin >= first && vmax < last) {
+      // Common case with Morton ids: the whole tetrahedron in one range.
+      const std::size_t r = rangeOf(vmin);
+      if (vmax < range_start[r + 1]) {
+        out[0] = r;
+        return 1u;
+      }
+    }
+    index_t v[4] = {tv[0], tv[1], tv[2], tv[3]};
+    std::sort(v, v + 4);
+    unsigned k = 0;
+    for (unsigned j = 0; j < 3; ++j) {
+      if (v[j] < first || v[j] >= last) continue;
+      const std::size_t r = rangeOf(v[j]);
+      if (k == 0 || out[k - 1] != r) out[k++] = r;
+    }
+    return k;
+  };
+  // Calls emit(worker, range, tetrahedron) for every live tetrahedron and range it has an edge in,
+  // worker w over the w-th slice of the tetrahedra.
+  auto forEachListEntry = [&](auto&& emit) {
+    parallelFor(nt, workers, [&](std::size_t tb, std::size_t te, unsigned w) {
+      std::size_t rs[3];
+      for (std::size_t t = tb; t < te; ++t) {
+        const index_t* tv = &tet_v_[4 * t];
+        if (!live(tv)) continue;
+        const unsigned k = rangesOf(tv, rs);
+        for (unsigned j = 0; j < k; ++j) emit(w, rs[j], t);
+      }
+    });
+  };
+  std::vector<std::size_t> count(std::size_t(workers) * num_ranges, 0);
+  forEachListEntry([&](unsigned w, std::size_t r, std::size_t) { ++count[w * num_ranges + r]; });
+  std::vector<std::size_t> list_start(num_ranges + 1, 0), offset(count.size());
+  {
+    std::size_t acc = 0;
+    for (std::size_t r = 0; r < num_ranges; ++r) {
+      list_start[r] = acc;
+      for (unsigned w = 0; w < workers; ++w) {
+        offset[w * num_ranges + r] = acc;
+        acc += count[w * num_ranges + r];
+      }
+    }
+    list_start[num_ranges] = acc;
+  }
+  std::vector<index_t> lists(list_start[num_ranges]);
+  forEachListEntry([&](unsigned w, std::size_t r, std::size_t t) {
+    lists[offset[w * num_ranges + r]++] = static_cast<index_t>(t);
+  });
+
+  // 3. The edges of each range, ranges dealt out to the chunks in turn.
   auto work = [&](unsigned part) {
     auto& out = chunks[part];
     std::vector<index_t> stamp(n, kNoTet);
-    std::vector<std::uint32_t> offset;
+    std::vector<std::uint32_t> bucket_offset, fill;
     std::vector<index_t> bucket;
     for (std::size_t r = part; r < num_ranges; r += num_threads) {
       const std::size_t lo = range_start[r], hi = range_start[r + 1];
-      offset.assign(hi - lo + 1, 0);
-      for (std::size_t a = lo; a < hi; ++a) offset[a - lo + 1] = offset[a - lo] + occurrences[a - first];
-      bucket.resize(offset.back());
-      std::vector<std::uint32_t> fill(offset.begin(), offset.end() - 1);
-      for (index_t t = 0; t < nt; ++t) {
-        const index_t* tv = &tet_v_[4 * std::size_t(t)];
-        const index_t vmax = std::max(std::max(tv[0], tv[1]), std::max(tv[2], tv[3]));
-        const index_t vmin = std::min(std::min(tv[0], tv[1]), std::min(tv[2], tv[3]));
-        if (vmax >= kDead || vmin >= hi || vmax < lo) continue;  // Morton ids: most tetrahedra skip here
+      bucket_offset.assign(hi - lo + 1, 0);
+      for (std::size_t a = lo; a < hi; ++a)
+        bucket_offset[a - lo + 1] = bucket_offset[a - lo] + occurrences[a - first];
+      bucket.resize(bucket_offset.back());
+      fill.assign(bucket_offset.begin(), bucket_offset.end() - 1);
+      for (std::size_t k = list_start[r]; k < list_start[r + 1]; ++k) {
+        const index_t* tv = &tet_v_[4 * std::size_t(lists[k])];
         for (const auto& pr : kPairs) {
           const index_t a = std::min(tv[pr[0]], tv[pr[1]]);
           if (a >= lo && a < hi) bucket[fill[a - lo]++] = std::max(tv[pr[0]], tv[pr[1]]);
         }
       }
       for (std::size_t a = lo; a < hi; ++a)
-        for (std::uint32_t k = offset[a - lo]; k < offset[a - lo + 1]; ++k) {
+        for (std::uint32_t k = bucket_offset[a - lo]; k < bucket_offset[a - lo + 1]; ++k) {
           const index_t b = bucket[k];
           if (stamp[b] == a) continue;
           stamp[b] = static_cast<index_t>(a);
@@ -495,15 +926,10 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const std::vector<in
         }
     }
   };
-  if (num_threads == 1 || num_ranges == 1) {
-    work(0);
-    for (unsigned p = 1; p < num_threads && num_ranges == 1; ++p) chunks[p].clear();
-  } else {
-    std::vector<std::thread> pool;
-    for (unsigned p = 1; p < num_threads; ++p) pool.emplace_back(work, p);
-    work(0);
-    for (auto& th : pool) th.join();
-  }
+  parallelFor(num_threads, std::min<std::size_t>(num_threads, num_ranges),
+              [&](std::size_t b, std::size_t e, unsigned) {
+                for (std::size_t part = b; part < e; ++part) work(static_cast<unsigned>(part));
+              });
   return chunks;
 }
 
@@ -573,10 +999,10 @@ void DelaunayKernel3D::validate() const {
 
 std::size_t DelaunayKernel3D::memoryBytes() const {
   return (tet_v_.capacity() + tet_n_.capacity() + birth_.capacity()) * sizeof(std::uint32_t) +
-         mark_.capacity() + free_.capacity() * sizeof(index_t) + link_key_.capacity() * 8 +
-         link_val_.capacity() * 4 + link_gen_.capacity() * 4 +
-         (cavity_.capacity() + stack_.capacity() + outside_.capacity()) * 4 +
-         boundary_.capacity() * sizeof(BoundaryFace);
+         mark_.capacity() + free_.capacity() * sizeof(index_t) + seq_.link_key.capacity() * 8 +
+         (seq_.link_val.capacity() + seq_.link_gen.capacity()) * 4 +
+         (seq_.cavity.capacity() + seq_.stack.capacity() + seq_.outside.capacity()) * 4 +
+         seq_.boundary.capacity() * sizeof(BoundaryFace);
 }
 
 }  // namespace builder3d

@@ -35,8 +35,9 @@ EdgeList incrementalDelaunayEdges(const std::vector<Vec3f>& points, const BuildO
     {
       std::function<void(double)> progress;
       if (options.progress) progress = [&](double f) { options.progress("delaunay3d", f); };
-      const std::vector<index_t> order = builder3d::brioOrder(points);
-      kernel.build(order.data(), order.size(), progress);
+      std::vector<std::size_t> rounds;
+      const std::vector<index_t> order = builder3d::brioOrder(points, rounds, 0, threads);
+      kernel.build(order.data(), order.size(), progress, rounds, threads);
     }
     chunks = kernel.releaseIntoEdgeChunks(threads);
   }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/space_filling_curve.h"
 
 namespace dw {
@@ -16,6 +17,11 @@ std::uint64_t splitmix64(std::uint64_t x) {
   return x ^ (x >> 31);
 }
 
+// The subset form, also reporting where each round starts.
+std::vector<index_t> brioOrderInRounds(const std::vector<Vec3f>& points, std::vector<index_t> ids,
+                                       std::uint64_t seed, std::vector<std::size_t>& round_begin,
+                                       unsigned num_threads);
+
 }  // namespace
 
 std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::uint64_t seed) {
@@ -26,6 +32,23 @@ std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::uint64_t s
 
 std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::vector<index_t> ids,
                                std::uint64_t seed) {
+  std::vector<std::size_t> unused;
+  return brioOrderInRounds(points, std::move(ids), seed, unused, 1);
+}
+
+std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::vector<std::size_t>& round_begin,
+                               std::uint64_t seed, unsigned num_threads) {
+  std::vector<index_t> ids(points.size());
+  for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = static_cast<index_t>(i);
+  return brioOrderInRounds(points, std::move(ids), seed, round_begin, num_threads);
+}
+
+namespace {
+
+std::vector<index_t> brioOrderInRounds(const std::vector<Vec3f>& points, std::vector<index_t> ids,
+                                       std::uint64_t seed, std::vector<std::size_t>& round_begin,
+                                       unsigned num_threads) {
+  round_begin.clear();
   const std::size_t n = ids.size();
   std::vector<index_t> order(std::move(ids));
   if (n == 0) return order;
@@ -51,32 +74,60 @@ std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::vector<ind
   unsigned rounds = 1;
   while (rounds < 15 && (n >> rounds) > 512) ++rounds;
 
-  // keys[k] belongs to order[k]; sort positions, then map back to ids.
-  std::vector<std::uint64_t> keys(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    const index_t i = order[k];
-    const Vec3f& p = points[i];
-    const auto cell = [&](float v, int k) {
-      const double c = std::floor((double(v) - lo[k]) * scale);
-      return static_cast<std::uint32_t>(std::min(std::max(c, 0.0), double((1u << 21) - 1)));
-    };
-    const std::uint64_t morton = mortonKey(cell(p.x, 0), cell(p.y, 1), cell(p.z, 2));
-    // Round R-1 with probability 1/2, R-2 with 1/4, ...; round 0 takes the remainder.
-    const std::uint64_t h = splitmix64(i ^ (seed * 0xD1B54A32D192ED03ull));
-    unsigned tz = 0;
-    while (tz + 1 < rounds && ((h >> tz) & 1u) == 0) ++tz;
-    const std::uint64_t round = rounds - 1 - tz;
-    keys[k] = (round << 59) | (morton >> 4);
-  }
-  std::vector<index_t> pos(n);
-  for (std::size_t k = 0; k < n; ++k) pos[k] = static_cast<index_t>(k);
-  std::sort(pos.begin(), pos.end(), [&](index_t a, index_t b) {
-    return keys[a] != keys[b] ? keys[a] < keys[b] : order[a] < order[b];
+  // One key per point: its round above its Morton code; ids break ties, so the order is unique.
+  struct KeyId {
+    std::uint64_t key;
+    index_t id;
+    bool operator<(const KeyId& o) const { return key != o.key ? key < o.key : id < o.id; }
+  };
+  std::vector<KeyId> kv(n);
+  const unsigned workers = workerCount(n, num_threads, std::size_t(1) << 16);
+  parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned) {
+    for (std::size_t k = b; k < e; ++k) {
+      const index_t i = order[k];
+      const Vec3f& p = points[i];
+      const auto cell = [&](float v, int axis) {
+        const double c = std::floor((double(v) - lo[axis]) * scale);
+        return static_cast<std::uint32_t>(std::min(std::max(c, 0.0), double((1u << 21) - 1)));
+      };
+      const std::uint64_t morton = mortonKey(cell(p.x, 0), cell(p.y, 1), cell(p.z, 2));
+      // Round R-1 with probability 1/2, R-2 with 1/4, ...; round 0 takes the remainder.
+      const std::uint64_t h = splitmix64(i ^ (seed * 0xD1B54A32D192ED03ull));
+      unsigned tz = 0;
+      while (tz + 1 < rounds && ((h >> tz) & 1u) == 0) ++tz;
+      const std::uint64_t round = rounds - 1 - tz;
+      kv[k] = {(round << 59) | (morton >> 4), i};
+    }
   });
-  std::vector<index_t> sorted(n);
-  for (std::size_t k = 0; k < n; ++k) sorted[k] = order[pos[k]];
-  return sorted;
+  // Sorted in `workers` slices at once, then merged pairwise, the merges of a level at once.
+  parallelFor(workers, workers, [&](std::size_t b, std::size_t e, unsigned) {
+    for (std::size_t c = b; c < e; ++c)
+      std::sort(kv.begin() + n * c / workers, kv.begin() + n * (c + 1) / workers);
+  });
+  if (workers > 1) {
+    std::vector<KeyId> tmp(n);
+    for (std::size_t width = 1; width < workers; width *= 2) {
+      const std::size_t pairs = (workers + 2 * width - 1) / (2 * width);
+      parallelFor(pairs, static_cast<unsigned>(pairs), [&](std::size_t b, std::size_t e, unsigned) {
+        for (std::size_t q = b; q < e; ++q) {
+          const std::size_t c0 = 2 * width * q, c1 = std::min<std::size_t>(c0 + width, workers),
+                            c2 = std::min<std::size_t>(c0 + 2 * width, workers);
+          const std::size_t lo_i = n * c0 / workers, mid = n * c1 / workers, hi_i = n * c2 / workers;
+          std::merge(kv.begin() + lo_i, kv.begin() + mid, kv.begin() + mid, kv.begin() + hi_i,
+                     tmp.begin() + lo_i);
+        }
+      });
+      kv.swap(tmp);
+    }
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    order[k] = kv[k].id;
+    if (k == 0 || (kv[k].key >> 59) != (kv[k - 1].key >> 59)) round_begin.push_back(k);
+  }
+  return order;
 }
+
+}  // namespace
 
 }  // namespace builder3d
 }  // namespace dw

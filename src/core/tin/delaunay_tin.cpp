@@ -13,10 +13,12 @@
 #include <system_error>
 
 #include "bowyer_watson.h"
+#include "merge_scheduler.h"
 #include "page_memory.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/predicates_2d.h"
 #include "strip_merge.h"
+#include "worker_team.h"
 
 namespace dw {
 namespace tin {
@@ -52,6 +54,24 @@ std::size_t stripTarget(std::size_t n, unsigned threads, const TinOptions& optio
   }
   return std::max<std::size_t>(1, std::min(want, std::max<std::size_t>(1, n / 16)));
 }
+
+/// Index of the strip holding long-axis coordinate v: the number of splits <= v (std::upper_bound).
+/// Consecutive input points usually lie in the same strip (LiDAR comes in scan order), so the last
+/// answer is tried first: a predictable test instead of a binary search for most points.
+class StripLocator {
+ public:
+  explicit StripLocator(const std::vector<double>& splits) : splits_(splits) {}
+  std::size_t operator()(double v) {
+    const std::size_t k = splits_.size();
+    if ((last_ == 0 || splits_[last_ - 1] <= v) && (last_ == k || v < splits_[last_])) return last_;
+    last_ = static_cast<std::size_t>(std::upper_bound(splits_.begin(), splits_.end(), v) - splits_.begin());
+    return last_;
+  }
+
+ private:
+  const std::vector<double>& splits_;
+  std::size_t last_ = 0;
+};
 
 /// A big block whose pages are given back in parallel slices (see page_memory.h) before it is freed.
 struct Release {
@@ -143,27 +163,92 @@ TinResult triangulate(std::vector<double>&& x, std::vector<double>&& y, const Ti
       tn_ready = done.get_future().share();
     }
   };
+  // One team of threads for every parallel pass of this call (see worker_team.h). Declared after the
+  // helper's guard, so on the way out the team is stopped before the helper is waited for.
+  detail::WorkerTeam team(threads);
 
-  // Input is scanned in chunks in parallel (finite test, bounds, then strip counts and a stable
-  // scatter): on many cores a serial pass here would cap the speed-up (Amdahl).
+  // Input is read in chunks in parallel (on many cores a serial pass here would cap the speed-up):
+  // pass A takes the strip sample (and maps the output array's pages), pass B checks every point and
+  // counts the strips, pass C scatters the points into strip order.
   const std::size_t chunks = std::max<std::size_t>(1, std::min<std::size_t>(4 * threads, n_in / 65536 + 1));
   auto chunkBegin = [&](std::size_t c) { return c * n_in / chunks; };
   auto finite = [&](std::size_t i) { return std::isfinite(xin[i]) && std::isfinite(yin[i]); };
+  // The sample: the finite points among input indices k n_in / m, k < m, each chunk taking its range.
+  const std::size_t sample_size = std::min<std::size_t>(n_in, 1 << 16);
+  auto sampleBegin = [&](std::size_t c) {  // first k with k n_in / m >= chunkBegin(c)
+    return n_in ? (chunkBegin(c) * sample_size + n_in - 1) / n_in : 0;
+  };
   struct ChunkScan {
-    double lo[2] = {0, 0}, hi[2] = {0, 0};
-    bool any = false;
+    std::vector<double> sample[2];     // the sampled points' x and y, each sorted
     std::size_t out_of_range = kNone;  // first finite point the exact predicates cannot handle
     std::vector<index_t> skipped;
     std::vector<std::size_t> count;  // per strip
   };
   std::vector<ChunkScan> scan(chunks);
-  parallelForDynamic(prefault_slices + chunks, threads, [&](std::size_t task) {
+  team.forEach(prefault_slices + chunks, [&](std::size_t task) {
     if (task < prefault_slices) {
       detail::prefaultSlice(tn_store.data(), tn_bytes, task, prefault_slices);
       return;
     }
-    const std::size_t c = task - prefault_slices;
+    ChunkScan& cs = scan[task - prefault_slices];
+    for (std::size_t k = sampleBegin(task - prefault_slices); k < sampleBegin(task - prefault_slices + 1);
+         ++k) {
+      const std::size_t i = k * n_in / sample_size;
+      if (!finite(i)) continue;
+      cs.sample[0].push_back(xin[i]);
+      cs.sample[1].push_back(yin[i]);
+    }
+    std::sort(cs.sample[0].begin(), cs.sample[0].end());
+    std::sort(cs.sample[1].begin(), cs.sample[1].end());
+  });
+  startFill();
+  // The long axis: the wider side of the sample's bounding box (only speed depends on it).
+  double lo[2] = {0, 0}, hi[2] = {0, 0};
+  std::size_t sampled = 0;
+  for (const ChunkScan& cs : scan) {
+    if (cs.sample[0].empty()) continue;
+    for (int k = 0; k < 2; ++k) {
+      lo[k] = sampled ? std::min(lo[k], cs.sample[k].front()) : cs.sample[k].front();
+      hi[k] = sampled ? std::max(hi[k], cs.sample[k].back()) : cs.sample[k].back();
+    }
+    sampled += cs.sample[0].size();
+  }
+  const int axis = (hi[1] - lo[1]) > (hi[0] - lo[0]) ? 1 : 0;
+  const std::vector<double>& along = axis == 0 ? xin : yin;
+
+  // Map: equal-count strips from quantiles of the sample's long-axis coordinate. The chunks' sorted
+  // runs are merged pairwise, the merges of one round in parallel. The strip count is chosen for the
+  // finite points the sample predicts.
+  const std::size_t want =
+      stripTarget(sample_size ? n_in / sample_size * sampled + n_in % sample_size * sampled / sample_size : 0,
+                  threads, options);
+  std::vector<double> splits;
+  if (want > 1) {
+    std::vector<double> sample;
+    std::vector<std::size_t> run_end;  // ends of the sorted runs in `sample`
+    for (const ChunkScan& cs : scan) {
+      sample.insert(sample.end(), cs.sample[axis].begin(), cs.sample[axis].end());
+      if (!cs.sample[axis].empty()) run_end.push_back(sample.size());
+    }
+    for (std::size_t width = 1; width < run_end.size(); width *= 2)
+      team.forEach((run_end.size() + 2 * width - 1) / (2 * width), [&](std::size_t k) {
+        const std::size_t r = 2 * width * k;
+        if (r + width >= run_end.size()) return;
+        const std::size_t b = r ? run_end[r - 1] : 0, m = run_end[r + width - 1];
+        const std::size_t e = run_end[std::min(run_end.size(), r + 2 * width) - 1];
+        std::inplace_merge(sample.begin() + std::ptrdiff_t(b), sample.begin() + std::ptrdiff_t(m),
+                           sample.begin() + std::ptrdiff_t(e));
+      });
+    for (std::size_t k = 1; k < want && !sample.empty(); ++k) {
+      const double s = sample[k * sample.size() / want];
+      if (s > sample.front() && (splits.empty() || s > splits.back())) splits.push_back(s);
+    }
+  }
+  const std::size_t num_strips = splits.size() + 1;
+  team.forEach(chunks, [&](std::size_t c) {
     ChunkScan& cs = scan[c];
+    cs.count.assign(num_strips, 0);
+    StripLocator stripOf(splits);
     for (std::size_t i = chunkBegin(c); i < chunkBegin(c + 1); ++i) {
       if (!finite(i)) {
         cs.skipped.push_back(static_cast<index_t>(i));
@@ -171,15 +256,7 @@ TinResult triangulate(std::vector<double>&& x, std::vector<double>&& y, const Ti
       }
       if (cs.out_of_range == kNone && !(pred::inExactRange(xin[i]) && pred::inExactRange(yin[i])))
         cs.out_of_range = i;
-      if (!cs.any) {
-        cs.lo[0] = cs.hi[0] = xin[i];
-        cs.lo[1] = cs.hi[1] = yin[i];
-        cs.any = true;
-      }
-      cs.lo[0] = std::min(cs.lo[0], xin[i]);
-      cs.hi[0] = std::max(cs.hi[0], xin[i]);
-      cs.lo[1] = std::min(cs.lo[1], yin[i]);
-      cs.hi[1] = std::max(cs.hi[1], yin[i]);
+      ++cs.count[stripOf(along[i])];
     }
   });
   for (const ChunkScan& cs : scan)
@@ -190,50 +267,9 @@ TinResult triangulate(std::vector<double>&& x, std::vector<double>&& y, const Ti
                   ") is outside the range where the exact predicates are exact (each coordinate 0 or "
                   "between 2^-150 ~ 7e-46 and 2^200 ~ 1.6e60 in magnitude); rescale or re-centre the input");
     }
-  startFill();
-  double lo[2] = {0, 0}, hi[2] = {0, 0};
-  bool first = true;
-  for (const ChunkScan& cs : scan) {
+  for (const ChunkScan& cs : scan)
     result.skipped.insert(result.skipped.end(), cs.skipped.begin(), cs.skipped.end());
-    if (!cs.any) continue;
-    for (int k = 0; k < 2; ++k) {
-      lo[k] = first ? cs.lo[k] : std::min(lo[k], cs.lo[k]);
-      hi[k] = first ? cs.hi[k] : std::max(hi[k], cs.hi[k]);
-    }
-    first = false;
-  }
   const std::size_t n = n_in - result.skipped.size();
-  const int axis = (hi[1] - lo[1]) > (hi[0] - lo[0]) ? 1 : 0;
-  const std::vector<double>& along = axis == 0 ? xin : yin;
-
-  // Map: equal-count strips from quantiles of a deterministic sample of the long-axis coordinate.
-  const std::size_t want = stripTarget(n, threads, options);
-  std::vector<double> splits;
-  if (want > 1) {
-    std::vector<double> sample;
-    const std::size_t m = std::min<std::size_t>(n_in, 1 << 16);
-    sample.reserve(m);
-    for (std::size_t k = 0; k < m; ++k) {
-      const double v = along[k * n_in / m];
-      if (std::isfinite(v) && std::isfinite(axis == 0 ? yin[k * n_in / m] : xin[k * n_in / m]))
-        sample.push_back(v);
-    }
-    std::sort(sample.begin(), sample.end());
-    for (std::size_t k = 1; k < want && !sample.empty(); ++k) {
-      const double s = sample[k * sample.size() / want];
-      if (s > sample.front() && (splits.empty() || s > splits.back())) splits.push_back(s);
-    }
-  }
-  const std::size_t num_strips = splits.size() + 1;
-  auto stripOf = [&](std::size_t i) {
-    return static_cast<std::size_t>(std::upper_bound(splits.begin(), splits.end(), along[i]) -
-                                    splits.begin());
-  };
-  parallelForDynamic(chunks, threads, [&](std::size_t c) {
-    scan[c].count.assign(num_strips, 0);
-    for (std::size_t i = chunkBegin(c); i < chunkBegin(c + 1); ++i)
-      if (finite(i)) ++scan[c].count[stripOf(i)];
-  });
   // Strip s starts at start[s]; within it, chunk c's points follow those of chunks < c (stable order,
   // so positions within a strip increase with the input index, i.e. with the rank).
   std::vector<std::size_t> start(num_strips + 1, 0);
@@ -250,11 +286,13 @@ TinResult triangulate(std::vector<double>&& x, std::vector<double>&& y, const Ti
   // 20 bytes/point measurably capped the many-core speed-up).
   std::unique_ptr<double[]> pxy(new double[2 * n]);
   std::unique_ptr<index_t[]> rank(new index_t[n]);
-  parallelForDynamic(chunks, threads, [&](std::size_t c) {
+  team.forEach(chunks, [&](std::size_t c) {
     std::vector<std::size_t>& fill = scan[c].count;
+    StripLocator stripOf(splits);
+    const bool all_finite = scan[c].skipped.empty();
     for (std::size_t i = chunkBegin(c); i < chunkBegin(c + 1); ++i) {
-      if (!finite(i)) continue;
-      const std::size_t p = fill[stripOf(i)]++;
+      if (!all_finite && !finite(i)) continue;
+      const std::size_t p = fill[stripOf(along[i])]++;
       pxy[2 * p] = xin[i];
       pxy[2 * p + 1] = yin[i];
       rank[p] = static_cast<index_t>(i);
@@ -271,23 +309,52 @@ TinResult triangulate(std::vector<double>&& x, std::vector<double>&& y, const Ti
   const std::size_t total_slots = 2 * n + 2 * num_strips;
   if (total_slots > arena_slots) throw Error("dw::tin: internal consistency failure (arena too small)");
   std::unique_ptr<index_t[]> tv(new index_t[3 * total_slots]);
-  detail::TriangleArena arena{tv.get(), nullptr};  // tn is set once the helper has filled it
   const detail::PointSet ps{pxy.get(), rank.get()};
 
-  // The input's pages go back to the system as tasks beside the first strips rather than as a serial
-  // step (unmapping 16 bytes/point took tens of milliseconds on the device).
+  // Map and reduce in one pass of the team: a worker that finishes a strip merges it at once with a
+  // neighbouring group that is already complete, and goes on merging while it finds one (see
+  // merge_scheduler.h), so merges overlap the remaining strips and, after the last strip, at most a
+  // couple remain. The input's pages go back to the system as tasks beside the first strips rather
+  // than as a serial step (unmapping 16 bytes/point took tens of milliseconds on the device).
   const std::vector<Release> input_blocks = {
       {xin.data(), xin.size() * sizeof(double), slicesFor(xin.size() * sizeof(double))},
       {yin.data(), yin.size() * sizeof(double), slicesFor(yin.size() * sizeof(double))}};
   const std::size_t input_tasks = releaseTasks(input_blocks);
   const auto t_strips = std::chrono::steady_clock::now();
-  std::vector<Group> groups(num_strips);
+  std::vector<Group> groups(num_strips);  // groups[b]: the group whose first strip is b
   std::vector<std::vector<std::pair<index_t, index_t>>> strip_dups(num_strips);
   std::vector<double> strip_seconds(num_strips, 0.0), wait_seconds(num_strips, 0.0);
-  std::atomic<std::size_t> strips_done{0};
-  parallelForDynamic(input_tasks + num_strips, threads, [&](std::size_t task) {
+  std::vector<double> last_strip_end(num_strips, 0.0), last_merge_end(num_strips, 0.0);
+  std::vector<double> merge_seconds(num_strips, 0.0);
+  std::atomic<std::size_t> strips_done{0}, merges_done{0}, band{0};
+  detail::MergeScheduler scheduler(num_strips);
+  // Merges everything the completion of group [b, e) makes possible; runs on the completing worker.
+  auto mergeFrom = [&](std::size_t b, std::size_t e) {
+    for (detail::MergeScheduler::Claim c = scheduler.complete(b, e); c.valid;) {
+      const auto t0 = std::chrono::steady_clock::now();
+      Group& l = groups[c.left];
+      Group& r = groups[c.right];
+      const std::size_t end = r.strip_end;
+      std::size_t local = 0;
+      // tn_store is filled: this worker has passed tn_ready.get() before completing its strip.
+      const detail::TriangleArena arena{tv.get(), tn_store.data()};
+      l = detail::mergeGroups(ps, arena, axis, splits[c.right - 1], std::move(l), std::move(r), &local);
+      band += local;
+      merge_seconds[c.left] += secondsSince(t0);
+      last_merge_end[c.left] = std::max(last_merge_end[c.left], secondsSince(t_strips));
+      progress("merge", double(++merges_done) / double(num_strips - 1));
+      c = scheduler.complete(c.left, end);
+    }
+  };
+  // Strips are handed out in the order 0, 2, 4, ..., then 1, 3, 5, ...: every strip of the second
+  // half finds both neighbours done (or nearly), so the merges follow each strip at once instead of
+  // waiting at the end for a run of adjacent strips that finish together, which took a chain of
+  // merges one after the other.
+  const std::size_t evens = (num_strips + 1) / 2;
+  team.forEach(input_tasks + num_strips, [&](std::size_t task) {
     if (runReleaseTask(input_blocks, task)) return;
-    const std::size_t s = task - input_tasks;
+    const std::size_t k = task - input_tasks;
+    const std::size_t s = k < evens ? 2 * k : 2 * (k - evens) + 1;
     const auto t0 = std::chrono::steady_clock::now();
     const std::size_t b = start[s], e = start[s + 1];
     Group& g = groups[s];
@@ -315,8 +382,9 @@ TinResult triangulate(std::vector<double>&& x, std::vector<double>&& y, const Ti
     const auto t1 = std::chrono::steady_clock::now();
     tn_ready.get();  // rethrows the helper's exception (e.g. out of memory)
     wait_seconds[s] = secondsSince(t1);
+    const detail::TriangleArena strip_arena{tv.get(), tn_store.data()};
     if (e > b) {
-      detail::BowyerWatson kernel(ps, detail::TriangleArena{tv.get(), tn_store.data()}, base, cap);
+      detail::BowyerWatson kernel(ps, strip_arena, base, cap);
       kernel.run(order.data(), order.size());
       g.num_vertices = kernel.numVertices();
       g.has_triangles = kernel.hasTriangles();
@@ -324,76 +392,98 @@ TinResult triangulate(std::vector<double>&& x, std::vector<double>&& y, const Ti
         g.ghost = kernel.anyGhost();
       else
         g.loose = kernel.collinearVertices();
-      strip_dups[s] = kernel.duplicates();
+      // Duplicates as (input index, representative's input index), sorted here in parallel; the
+      // output only merges the strips' sorted lists.
+      std::vector<std::pair<index_t, index_t>>& d = strip_dups[s];
+      d.reserve(kernel.duplicates().size());
+      for (const auto& pr : kernel.duplicates()) d.emplace_back(rank[pr.first], rank[pr.second]);
+      std::sort(d.begin(), d.end());
       for (index_t t = base + kernel.used(); t < base + cap; ++t) g.free_slots.push_back(t);
     } else {
       for (index_t t = base; t < base + cap; ++t) g.free_slots.push_back(t);
     }
     for (const index_t t : g.free_slots) tv[3 * t] = kDead;
     strip_seconds[s] = secondsSince(t0) - wait_seconds[s];
+    last_strip_end[s] = secondsSince(t_strips);
     progress("strips", double(++strips_done) / double(num_strips));
+    mergeFrom(s, s + 1);
   });
   std::vector<double>().swap(xin);
   std::vector<double>().swap(yin);
   tn_ready.get();
-  arena.tn = tn_store.data();
-  result.stats.strips_s = secondsSince(t_strips);
-  for (const Group& g : groups) result.stats.strips += g.num_vertices > 0;
+  if (scheduler.endOf(0) != num_strips)
+    throw Error("dw::tin: internal consistency failure (merges incomplete)");
+  const Group& all = groups.front();
+  {
+    const double strips_end = *std::max_element(last_strip_end.begin(), last_strip_end.end());
+    const double merges_end = *std::max_element(last_merge_end.begin(), last_merge_end.end());
+    result.stats.strips_s = strips_end;
+    result.stats.merge_s = std::max(0.0, merges_end - strips_end);
+    for (const double m : merge_seconds) result.stats.merge_work_s += m;
+  }
+  for (std::size_t s = 0; s < num_strips; ++s) result.stats.strips += start[s + 1] > start[s];
   result.stats.strip_max_s = *std::max_element(strip_seconds.begin(), strip_seconds.end());
   result.stats.fill_wait_s = *std::max_element(wait_seconds.begin(), wait_seconds.end());
-
-  // Reduce: merge neighbours pairwise, level by level; the merges of one level run in parallel.
-  const auto t_merge = std::chrono::steady_clock::now();
-  std::atomic<std::size_t> band{0};
-  const std::size_t levels =
-      num_strips > 1 ? static_cast<std::size_t>(std::ceil(std::log2(double(num_strips)))) : 0;
-  std::size_t level = 0;
-  while (groups.size() > 1) {
-    const std::size_t pairs = groups.size() / 2;
-    std::vector<Group> next(pairs + groups.size() % 2);
-    parallelForDynamic(pairs, threads, [&](std::size_t k) {
-      Group& l = groups[2 * k];
-      Group& r = groups[2 * k + 1];
-      const double seam = splits[r.strip_begin - 1];
-      std::size_t local = 0;
-      next[k] = detail::mergeGroups(ps, arena, axis, seam, std::move(l), std::move(r), &local);
-      band += local;
-    });
-    if (groups.size() % 2) next.back() = std::move(groups.back());
-    groups.swap(next);
-    progress("merge", double(++level) / double(std::max<std::size_t>(levels, 1)));
-  }
-  result.stats.merge_s = secondsSince(t_merge);
   result.stats.merge_points = band;
 
   // Output: compact the live real triangles into input-index triples, in place of the adjacency array
   // (no longer needed): chunk c writes [3 offset[c], 3 offset[c + 1]) of it and reads only tv and rank.
   // The coordinates are not read any more; their pages go back beside the writing.
   const auto t_out = std::chrono::steady_clock::now();
-  const Group& all = groups.front();
   result.num_vertices = all.num_vertices;
   result.degenerate = !all.has_triangles;
   const std::vector<Release> xy_block = {
       {pxy.get(), 2 * n * sizeof(double), slicesFor(2 * n * sizeof(double))}};
   const std::size_t xy_tasks = releaseTasks(xy_block);
   std::size_t live_triangles = 0;
+  const std::size_t out_chunks =
+      std::max<std::size_t>(1, std::min<std::size_t>(4 * threads, total_slots / 65536 + 1));
+  // Duplicates: the strips' sorted lists are merged by ranges of the duplicate's input index, range c
+  // of dup_chunks written by one task: dup_at[c][s] is where range c starts in strip s's list (the
+  // table is kept small when the caller asks for very many strips).
+  const std::size_t dup_chunks =
+      std::max<std::size_t>(1, std::min<std::size_t>(out_chunks, (std::size_t(1) << 20) / num_strips));
+  std::vector<std::vector<std::size_t>> dup_at(dup_chunks + 1, std::vector<std::size_t>(num_strips, 0));
+  for (std::size_t c = 0; c <= dup_chunks; ++c)
+    for (std::size_t s = 0; s < num_strips; ++s) {
+      const auto& d = strip_dups[s];
+      const auto bound = std::make_pair(static_cast<index_t>(c * n_in / dup_chunks), index_t{0});
+      dup_at[c][s] = c == dup_chunks
+                         ? d.size()
+                         : static_cast<std::size_t>(std::lower_bound(d.begin(), d.end(), bound) - d.begin());
+    }
+  std::vector<std::size_t> dup_offset(dup_chunks + 1, 0);
+  for (std::size_t c = 0; c < dup_chunks; ++c) {
+    dup_offset[c + 1] = dup_offset[c];
+    for (std::size_t s = 0; s < num_strips; ++s) dup_offset[c + 1] += dup_at[c + 1][s] - dup_at[c][s];
+  }
+  result.duplicates.resize(dup_offset[dup_chunks]);
+  auto writeDuplicates = [&](std::size_t c) {
+    auto out = result.duplicates.begin() + std::ptrdiff_t(dup_offset[c]);
+    for (std::size_t s = 0; s < num_strips; ++s)
+      out = std::copy(strip_dups[s].begin() + std::ptrdiff_t(dup_at[c][s]),
+                      strip_dups[s].begin() + std::ptrdiff_t(dup_at[c + 1][s]), out);
+    std::sort(result.duplicates.begin() + std::ptrdiff_t(dup_offset[c]), out);
+  };
   if (all.has_triangles) {
-    const std::size_t out_chunks =
-        std::max<std::size_t>(1, std::min<std::size_t>(4 * threads, total_slots / 65536 + 1));
     auto slotBegin = [&](std::size_t c) { return c * total_slots / out_chunks; };
     auto live = [&](std::size_t t) {
       const index_t* v = tv.get() + 3 * t;
       return !(v[0] == kDead || v[0] == kGhost || v[1] == kGhost || v[2] == kGhost);
     };
     std::vector<std::size_t> offset(out_chunks + 1, 0);
-    parallelForDynamic(out_chunks, threads, [&](std::size_t c) {
+    team.forEach(out_chunks + dup_chunks, [&](std::size_t task) {
+      if (task >= out_chunks) {
+        writeDuplicates(task - out_chunks);
+        return;
+      }
       std::size_t k = 0;
-      for (std::size_t t = slotBegin(c); t < slotBegin(c + 1); ++t) k += live(t);
-      offset[c + 1] = k;
+      for (std::size_t t = slotBegin(task); t < slotBegin(task + 1); ++t) k += live(t);
+      offset[task + 1] = k;
     });
     for (std::size_t c = 0; c < out_chunks; ++c) offset[c + 1] += offset[c];
     live_triangles = offset[out_chunks];
-    parallelForDynamic(xy_tasks + out_chunks, threads, [&](std::size_t task) {
+    team.forEach(xy_tasks + out_chunks, [&](std::size_t task) {
       if (runReleaseTask(xy_block, task)) return;
       const std::size_t c = task - xy_tasks;
       index_t* out = tn_store.data() + 3 * offset[c];
@@ -405,19 +495,17 @@ TinResult triangulate(std::vector<double>&& x, std::vector<double>&& y, const Ti
         *out++ = rank[v[2]];
       }
     });
+  } else {
+    team.forEach(dup_chunks, writeDuplicates);
   }
   // Shrinking keeps the storage; only when duplicates or skipped points left most of it unused is it
   // worth a copy.
   tn_store.resize(3 * live_triangles);
   if (tn_store.size() < tn_store.capacity() / 2) tn_store.shrink_to_fit();
-  for (const auto& d : strip_dups)
-    for (const auto& pr : d) result.duplicates.emplace_back(rank[pr.first], rank[pr.second]);
-  std::sort(result.duplicates.begin(), result.duplicates.end());
   const std::vector<Release> arena_blocks = {
       {tv.get(), 3 * total_slots * sizeof(index_t), slicesFor(3 * total_slots * sizeof(index_t))},
       {rank.get(), n * sizeof(index_t), slicesFor(n * sizeof(index_t))}};
-  parallelForDynamic(releaseTasks(arena_blocks), threads,
-                     [&](std::size_t task) { runReleaseTask(arena_blocks, task); });
+  team.forEach(releaseTasks(arena_blocks), [&](std::size_t task) { runReleaseTask(arena_blocks, task); });
   tv.reset();
   pxy.reset();
   rank.reset();

@@ -53,7 +53,25 @@ std::vector<index_t> collectBand(const PointSet& ps, index_t* tv, const index_t*
   if (!g.has_triangles) return band;
   tv[3 * g.ghost] |= kMark;
   band.push_back(g.ghost);
+  // The band's triangles lie scattered over the strips' slot ranges (created in BRIO rounds), so the
+  // search waits on memory. The queue shows what comes next: the adjacency of a queued triangle is
+  // fetched when it is queued, its neighbours' vertices four steps ahead, their coordinates two ahead.
+  auto prefetch = [](const void* p) {
+#if defined(__GNUC__)
+    __builtin_prefetch(p);
+#else
+    (void)p;
+#endif
+  };
   for (std::size_t head = 0; head < band.size(); ++head) {
+    if (head + 4 < band.size())
+      for (index_t i = 0; i < 3; ++i) prefetch(tv + 3 * (tn[3 * band[head + 4] + i] / 3));
+    if (head + 2 < band.size())
+      for (index_t i = 0; i < 3; ++i) {
+        const index_t* v = tv + 3 * (tn[3 * band[head + 2] + i] / 3);
+        for (index_t j = 0; j < 3; ++j)
+          if ((v[j] & ~kMark) < kGhost) prefetch(ps.at(v[j] & ~kMark));
+      }
     const index_t t = band[head];
     for (index_t i = 0; i < 3; ++i) {
       const index_t n = tn[3 * t + i] / 3;
@@ -61,6 +79,7 @@ std::vector<index_t> collectBand(const PointSet& ps, index_t* tv, const index_t*
       if (isGhost(tv, n) || !provablySure(ps, tv, n, axis, seam, left)) {
         tv[3 * n] |= kMark;
         band.push_back(n);
+        prefetch(tn + 3 * std::size_t(n));
       }
     }
   }
@@ -170,12 +189,15 @@ Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam
   out.strip_begin = a.strip_begin;
   out.strip_end = b.strip_end;
   out.num_vertices = a.num_vertices + b.num_vertices;
+  // Free slots: the larger list is moved, not copied (the lists hold the strips' unused slots, two per
+  // duplicate point, and grow towards the root of the reduce).
+  if (a.free_slots.size() < b.free_slots.size()) std::swap(a.free_slots, b.free_slots);
   out.free_slots = std::move(a.free_slots);
   out.free_slots.insert(out.free_slots.end(), b.free_slots.begin(), b.free_slots.end());
-  out.free_slots.insert(out.free_slots.end(), band_a.begin(), band_a.end());
-  out.free_slots.insert(out.free_slots.end(), band_b.begin(), band_b.end());
   if (!kernel.hasTriangles()) {
     if (a.has_triangles || b.has_triangles) mergeError("band lost its triangles");
+    out.free_slots.insert(out.free_slots.end(), band_a.begin(), band_a.end());
+    out.free_slots.insert(out.free_slots.end(), band_b.begin(), band_b.end());
     out.loose = kernel.collinearVertices();
     return out;
   }
@@ -227,12 +249,23 @@ Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam
   const std::size_t sure_a = a.has_triangles ? 2 * a.num_vertices - 2 - band_a.size() : 0;
   const std::size_t sure_b = b.has_triangles ? 2 * b.num_vertices - 2 - band_b.size() : 0;
   if (keep + sure_a + sure_b != 2 * out.num_vertices - 2) mergeError("triangle count (Euler) mismatch");
-  if (keep > out.free_slots.size()) mergeError("not enough slots");
+  if (keep > band_a.size() + band_b.size() + out.free_slots.size()) mergeError("not enough slots");
 
+  // The kept triangles go into the band's own slots first (just read, so in cache, and near the seam),
+  // then (Euler: two more than the band had) into free slots taken from the back of the list.
   std::vector<index_t> slot(used, kDead);
   std::size_t next = 0;
+  const std::size_t band_slots = band_a.size() + band_b.size();
+  auto takeSlot = [&]() {
+    const std::size_t k = next++;
+    if (k < band_a.size()) return band_a[k];
+    if (k < band_slots) return band_b[k - band_a.size()];
+    const index_t f = out.free_slots.back();
+    out.free_slots.pop_back();
+    return f;
+  };
   for (index_t t = 0; t < used; ++t)
-    if (state[t] != 1) slot[t] = out.free_slots[next++];
+    if (state[t] != 1) slot[t] = takeSlot();
   for (index_t t = 0; t < used; ++t) {
     if (state[t] == 1) continue;
     const index_t s = slot[t];
@@ -250,8 +283,11 @@ Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam
       tn[3 * s + i] = 3 * slot[nc / 3] + nc % 3;
     }
   }
-  for (std::size_t k = next; k < out.free_slots.size(); ++k) tv[3 * out.free_slots[k]] = kDead;
-  out.free_slots.erase(out.free_slots.begin(), out.free_slots.begin() + static_cast<std::ptrdiff_t>(next));
+  for (std::size_t k = next; k < band_slots; ++k) {  // band slots left over
+    const index_t f = k < band_a.size() ? band_a[k] : band_b[k - band_a.size()];
+    tv[3 * f] = kDead;
+    out.free_slots.push_back(f);
+  }
   out.has_triangles = true;
   if (out.ghost == kDead) mergeError("merged triangulation has no hull");
   return out;

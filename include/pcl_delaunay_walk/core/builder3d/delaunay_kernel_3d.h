@@ -41,8 +41,26 @@ class DelaunayKernel3D {
   /// `progress` (optional) receives the fraction inserted.
   void build(const index_t* order, std::size_t n, const std::function<void(double)>& progress = {});
 
+  /// build(), with the positions order[batch_begin[r] .. batch_begin[r + 1]) (the last batch runs to n)
+  /// inserted batch by batch through insertParallel() on `num_threads` threads; positions before the
+  /// first batch go in one by one. For BRIO rounds: each round is spread over the whole cloud.
+  void build(const index_t* order, std::size_t n, const std::function<void(double)>& progress,
+             const std::vector<std::size_t>& batch_begin, unsigned num_threads);
+
   /// Inserts one more vertex (a point distinct from every vertex present) into a built triangulation.
   void insert(index_t v);
+
+  /// Inserts the vertices ids[0..m) (distinct, not yet present) on `num_threads` threads by
+  /// partitioned insertion: each pass splits the batch into id ranges, one per thread; a thread owns
+  /// the tetrahedra whose four vertices are in its range and inserts a point only when the walk and
+  /// the whole cavity (plus the faces around it) stay inside what it owns, otherwise it defers the
+  /// point. The next pass moves the range boundaries by half a range, so the deferred points, which
+  /// sit near the old boundaries, land inside the new ones. What is left after a few passes, and
+  /// every point in batches too small to share, is inserted on the calling thread. The perturbed
+  /// Delaunay triangulation is unique, so the result does not depend on the thread count. Ranges are
+  /// compact in space when ids follow a space-filling curve (buildDelaunayGraph hands points over in
+  /// Morton order); otherwise the result is the same, only slower. Not with trackBirths(true).
+  void insertParallel(const index_t* ids, std::size_t m, unsigned num_threads);
 
   /// Whether build() has produced a tetrahedralisation.
   bool built() const { return !tet_v_.empty(); }
@@ -82,6 +100,23 @@ class DelaunayKernel3D {
   std::uint32_t birth(std::size_t t) const { return birth_[t]; }
   const index_t* tetVertices(std::size_t t) const { return &tet_v_[4 * t]; }
 
+  // ---- Vertex removal (issue 8, sliding-window maps; defined in src/core/builder3d/vertex_removal.cpp) ----
+  /// Removes vertex v: its star is re-triangulated by the Delaunay triangulation of its link under the
+  /// same perturbation, so the result equals a fresh build of the remaining vertices (with the same ids).
+  /// Throws dw::Error, leaving the structure unchanged, when the kernel is not built, v is out of range
+  /// or not present, or the remaining vertices would not span 3D (fewer than 4, or all coplanar).
+  /// numVertices() drops by one; clock() (birth tracking) counts vertices present, so it is not
+  /// monotone across removals.
+  void remove(index_t v);
+  /// Vertices removed since construction.
+  std::size_t numRemoved() const { return num_removed_; }
+
+ private:
+  std::size_t num_removed_ = 0;
+
+ public:
+  // ---- end of vertex removal ----
+
   /// Checks the whole structure (adjacency symmetry, orientation of every tetrahedron, the local
   /// Delaunay property of every interior face under the same perturbation, the Euler relation).
   /// Throws dw::Error naming the first violation. O(tetrahedra); for tests.
@@ -96,6 +131,13 @@ class DelaunayKernel3D {
     std::uint64_t conflict_tests = 0;
     std::uint64_t created_tets = 0;
     std::uint64_t fallback_locations = 0;  ///< walks that hit the step guard and fell back to a scan
+    std::uint64_t deferred = 0;            ///< parallel attempts deferred (foreign tetrahedra reached)
+    std::uint64_t parallel_passes = 0;     ///< passes of insertParallel that ran threads
+    std::uint64_t parallel_inserted = 0;   ///< vertices inserted by threads (the rest: calling thread)
+    double parallel_seconds = 0.0;         ///< wall time inside parallel passes (set-up included)
+    double parallel_busy_max = 0.0;        ///< per pass, the longest a thread inserted (summed over passes)
+    double parallel_busy_sum = 0.0;        ///< thread-seconds spent inserting in parallel passes
+    void add(const Stats& o);
   };
   const Stats& stats() const { return stats_; }
 
@@ -105,6 +147,39 @@ class DelaunayKernel3D {
     std::uint32_t outer;  // neighbour code of the tetrahedron outside the cavity
     std::uint32_t face;   // local index of that face in the new tetrahedron
   };
+
+  // One inserting thread's scratch (reused across insertions to keep the hot loop allocation-free),
+  // and in a parallel pass its own recycled and fresh tetrahedron slots.
+  // Aligned to keep one thread's hot counters and vector headers off another's cache lines.
+  struct alignas(128) Worker {
+    std::vector<index_t> cavity, stack, outside;
+    std::vector<BoundaryFace> boundary;
+    std::vector<std::uint64_t> link_key;
+    std::vector<std::uint32_t> link_val, link_gen;
+    std::uint32_t generation = 0;
+    std::vector<index_t> free;  // parallel pass: slots this thread took from the pool or recycled
+    index_t last_tet = 0;
+    std::uint32_t rng = 0x9E3779B9u;
+    std::vector<index_t> deferred;
+    Stats stats;
+  };
+  struct Everything;  // ownership policy of the sequential insertion
+  struct CellSplit;   // the threads' cells of one parallel pass
+  struct Cell;        // ownership policy of one thread in a parallel pass
+
+  // The insertion (walk, cavity, re-linking). Returns false, with nothing changed, when the policy
+  // does not own what the insertion would touch (never for Everything).
+  template <class Owner>
+  bool insertCore(index_t v, Worker& w, const Owner& own);
+  template <class Owner>
+  bool ownsTet(index_t t, const Owner& own) const;
+  // Visibility walk from tetrahedron `start` to the one holding p (or the first infinite one beyond
+  // the hull); kNoTet after `guard` steps or, with a sharing owner, where it would leave what it owns.
+  template <class Owner>
+  index_t walkTo(const double* p, index_t start, Worker& w, const Owner& own, std::uint64_t guard) const;
+  bool takeSlots(Worker& w, std::size_t count);
+  index_t takeSlot(Worker& w);
+  void runParallelPass(std::vector<index_t>& pending, unsigned threads, unsigned pass);
 
   static EdgeChunks extractEdges(const std::vector<index_t>& tet_v, std::size_t num_points,
                                  unsigned num_threads, std::size_t first, std::size_t last);
@@ -136,16 +211,16 @@ class DelaunayKernel3D {
   std::vector<std::uint32_t> birth_;  // per tetrahedron, with track_births_
   bool track_births_ = false;
 
-  // Per-insertion scratch, kept to avoid allocation in the hot loop.
-  std::vector<index_t> cavity_, stack_, outside_;
-  std::vector<BoundaryFace> boundary_;
-  std::vector<std::uint64_t> link_key_;
-  std::vector<std::uint32_t> link_val_;
-  std::vector<std::uint32_t> link_gen_;
-  std::uint32_t generation_ = 0;
+  Worker seq_;  // the calling thread's scratch (insert(), build(), the sequential rest of a batch)
+  // Parallel pass: the slot pool (recycled slots pool_, then the fresh range [fresh_begin_,
+  // fresh_end_)) handed out in chunks from position pool_next_ (advanced with atomic builtins; a
+  // std::atomic member would make the kernel immovable).
+  std::vector<index_t> pool_;
+  std::size_t pool_next_ = 0;
+  std::size_t fresh_begin_ = 0;
+  std::size_t fresh_end_ = 0;
 
   index_t last_tet_ = 0;
-  std::uint32_t rng_ = 0x9E3779B9u;
   Stats stats_;
 };
 

@@ -31,7 +31,10 @@ struct TinOptions {
 
 /// Timings and sizes of one run (seconds; for benchmarks and the app).
 struct TinStats {
+  /// Wall times of the stages. Merges overlap the strips (a strip is merged with a finished neighbour
+  /// as soon as it is done): strips_s ends with the last strip, merge_s is the merging left after it.
   double prepare_s = 0, strips_s = 0, merge_s = 0, output_s = 0;
+  double merge_work_s = 0;       ///< all merges' times added up (their total work, overlapped or not)
   std::size_t strips = 0;        ///< strips actually used (non-empty)
   std::size_t merge_points = 0;  ///< points re-triangulated in all merge bands together
   double strip_max_s = 0;        ///< the longest single strip (sort + kernel): the strips' critical path

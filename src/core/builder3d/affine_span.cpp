@@ -1,0 +1,63 @@
+// Exact affine span test: a point distinct from the first, then one off their line, then one off their
+// plane. Exact predicates, so a float-rounded "nearly flat" set counts as 3D exactly when the kernel can
+// triangulate it.
+#include "pcl_delaunay_walk/core/builder3d/affine_span.h"
+
+#include "pcl_delaunay_walk/core/predicates_3d.h"
+
+namespace dw {
+namespace builder3d {
+namespace {
+
+void toDouble(const Vec3f& p, double out[3]) {
+  out[0] = p.x;
+  out[1] = p.y;
+  out[2] = p.z;
+}
+
+// Three points are collinear iff all three axis-plane projections are.
+bool collinear(const double* a, const double* b, const double* c) {
+  for (int k = 0; k < 3; ++k) {
+    const int i = k, j = (k + 1) % 3;
+    const double pa[2] = {a[i], a[j]}, pb[2] = {b[i], b[j]}, pc[2] = {c[i], c[j]};
+    if (predicates::orient2d(pa, pb, pc) != 0.0) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool spans3D(const Vec3f* points, const index_t* ids, std::size_t n, index_t* tetrahedron) {
+  if (n < 4) return false;
+  double p0[3], p1[3], p2[3], q[3];
+  toDouble(points[ids[0]], p0);
+  std::size_t k1 = 1;
+  for (; k1 < n; ++k1) {
+    toDouble(points[ids[k1]], p1);
+    if (p1[0] != p0[0] || p1[1] != p0[1] || p1[2] != p0[2]) break;
+  }
+  if (k1 >= n) return false;
+  std::size_t k2 = k1 + 1;
+  for (; k2 < n; ++k2) {
+    toDouble(points[ids[k2]], p2);
+    if (!collinear(p0, p1, p2)) break;
+  }
+  if (k2 >= n) return false;
+  for (std::size_t k3 = k1 + 1; k3 < n; ++k3) {
+    if (k3 == k2) continue;
+    toDouble(points[ids[k3]], q);
+    if (predicates::orient3d(p0, p1, p2, q) != 0.0) {
+      if (tetrahedron) {
+        tetrahedron[0] = ids[0];
+        tetrahedron[1] = ids[k1];
+        tetrahedron[2] = ids[k2];
+        tetrahedron[3] = ids[k3];
+      }
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace builder3d
+}  // namespace dw
