@@ -27,6 +27,7 @@
 #include "datasets.h"
 #include "pcl_delaunay_walk/core/graph_builder.h"
 #include "pcl_delaunay_walk/core/neighbour_search.h"
+#include "pcl_delaunay_walk/core/query_order.h"
 #include "worker_pool.h"
 
 namespace dwb {
@@ -267,18 +268,14 @@ class WalkNn : public NnMethod {
     const std::size_t nv = g.points.size();
     const dw::index_t* hints = out.hint.data();
     // Visit order: the batch's own order, or (sorted) grouped by hint vertex so that consecutive walks
-    // start in nearby graph memory. A counting sort on hint / 64 costs O(n) and keeps ties in order.
+    // start in nearby graph memory, as the registration estimator does (dw::orderByStartVertex).
     const std::size_t n = e - b;
-    std::vector<dw::index_t> order_(n);  // per call: ranges of one batch run on concurrent threads
-    std::vector<std::size_t> counts_;
+    std::vector<dw::index_t> order_;  // per call: ranges of one batch run on concurrent threads
     if (sorted_ && n > 0) {
-      const std::size_t buckets = nv / 64 + 2;
-      counts_.assign(buckets + 1, 0);
-      auto bucket = [&](std::size_t i) { return hints[i] < nv ? hints[i] / 64 + 1 : 0; };
-      for (std::size_t i = b; i < e; ++i) ++counts_[bucket(i) + 1];
-      for (std::size_t k = 1; k <= buckets; ++k) counts_[k] += counts_[k - 1];
-      for (std::size_t i = b; i < e; ++i) order_[counts_[bucket(i)]++] = static_cast<dw::index_t>(i);
+      order_ = dw::orderByStartVertex(hints + b, n, nv);
+      for (dw::index_t& i : order_) i += static_cast<dw::index_t>(b);
     } else {
+      order_.resize(n);
       for (std::size_t i = 0; i < n; ++i) order_[i] = static_cast<dw::index_t>(b + i);
     }
     for (std::size_t k = 0; k < n; ++k) {

@@ -145,6 +145,11 @@ class CorrespondenceEstimationDelaunayWalk
   std::uint64_t hint_graph_ = 0;
   std::vector<dw::index_t> hints_;
   std::vector<DelaunayWalkIterationStats> stats_;
+  // Per-iteration scratch, kept between iterations: freeing and re-mapping five source-sized arrays
+  // every iteration costs page faults next to walks of ~1-2 steps.
+  std::vector<pcl::Correspondence> found_;
+  std::vector<unsigned char> keep_;
+  std::vector<dw::index_t> new_hints_, start_, order_;
 };
 
 }  // namespace registration

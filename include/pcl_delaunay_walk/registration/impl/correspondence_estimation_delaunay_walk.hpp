@@ -75,18 +75,21 @@ void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::sea
 
   // Each slot is written by exactly one worker; the compaction below is sequential, so the output
   // does not depend on how the range was split.
-  std::vector<pcl::Correspondence> found(n);
-  std::vector<unsigned char> keep(n, 0);
-  std::vector<dw::index_t> new_hints(n, dw::kInvalidIndex);
+  std::vector<pcl::Correspondence>& found = found_;
+  std::vector<unsigned char>& keep = keep_;
+  std::vector<dw::index_t>& new_hints = new_hints_;
+  found.resize(n);
+  keep.assign(n, 0);
+  new_hints.assign(n, dw::kInvalidIndex);
   const unsigned workers = dw::workerCount(n, nr_threads_);
   std::vector<DelaunayWalkIterationStats> partial(workers);
   // With hints, walk the batch grouped by start vertex (graph memory order) rather than source order;
   // each slot still gets its own query's answer, so the output is the same.
-  std::vector<dw::index_t> order;
+  std::vector<dw::index_t>& order = order_;
   if (use_hints) {
-    std::vector<dw::index_t> start(n);
-    for (std::size_t i = 0; i < n; ++i) start[i] = hints_[(*indices_)[i]];
-    order = dw::orderByStartVertex(start.data(), n, wq.neighbourSearch().graph().numVertices());
+    start_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) start_[i] = hints_[(*indices_)[i]];
+    order = dw::orderByStartVertex(start_.data(), n, wq.neighbourSearch().graph().numVertices());
   }
 
   dw::parallelFor(n, workers, [&](std::size_t begin, std::size_t end, unsigned w) {
