@@ -73,12 +73,7 @@ int main(int argc, char** argv) {
       else if (a == "--quiet")
         quiet = true;
       else if (a == "--inject") {
-        const std::string s = next();
-        const auto c1 = s.find(':'), c2 = s.rfind(':');
-        if (c1 == std::string::npos || c1 == c2) throw std::invalid_argument(s);
-        opt.fault_kill = s.substr(0, c1) == "kill";
-        opt.fault_stage = s.substr(c1 + 1, c2 - c1 - 1);
-        opt.fault_rank = std::stoi(s.substr(c2 + 1));
+        opt.fault = dw::mpi::FaultInjection::parse(next());
       } else if (a == "-h" || a == "--help") {
         if (rank == 0) usage();
         MPI_Finalize();
@@ -145,7 +140,7 @@ int main(int argc, char** argv) {
     if (!pieces.empty()) {
       dw::mpi::writeGraphPiecesAndManifest(MPI_COMM_WORLD, pieces, part, input.describe(), opt);
     } else {
-      part.checkFault(opt, "write");
+      opt.fault.check(part.rank, "write");
       const dw::DelaunayGraph g = dw::mpi::gatherGraph(MPI_COMM_WORLD, std::move(part));
       if (rank == 0) {
         dw::saveGraph(g, out);

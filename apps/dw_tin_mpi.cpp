@@ -107,12 +107,7 @@ int main(int argc, char** argv) {
       else if (a == "--quiet")
         quiet = true;
       else if (a == "--inject") {
-        const std::string s = next();
-        const auto c1 = s.find(':'), c2 = s.rfind(':');
-        if (c1 == std::string::npos || c1 == c2) throw std::invalid_argument(s);
-        opt.fault_kill = s.substr(0, c1) == "kill";
-        opt.fault_stage = s.substr(c1 + 1, c2 - c1 - 1);
-        opt.fault_rank = std::stoi(s.substr(c2 + 1));
+        opt.fault = dw::mpi::FaultInjection::parse(next());
       } else if (a == "-h" || a == "--help") {
         if (rank == 0) usage();
         MPI_Finalize();

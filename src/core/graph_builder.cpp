@@ -6,6 +6,7 @@
 #include <numeric>
 
 #include "pcl_delaunay_walk/core/space_filling_curve.h"
+#include "pcl_delaunay_walk/core/vec3d.h"
 
 namespace dw {
 
@@ -28,49 +29,38 @@ constexpr double kMaxExtent = 1e18;
 /// exact (distance^2 = in-plane^2 + off-plane^2, DESIGN.md §2).
 int affineDimension(const std::vector<Vec3f>& p, double basis[6], double rel_tol = 1e-9) {
   if (p.empty()) return 0;
-  auto d3 = [](const Vec3f& a) { return std::array<double, 3>{a.x, a.y, a.z}; };
-  auto sub = [](std::array<double, 3> a, std::array<double, 3> b) {
-    return std::array<double, 3>{a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-  };
-  auto dotd = [](std::array<double, 3> a, std::array<double, 3> b) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-  };
-  auto cross = [](std::array<double, 3> a, std::array<double, 3> b) {
-    return std::array<double, 3>{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                                 a[0] * b[1] - a[1] * b[0]};
-  };
-  const auto p0 = d3(p[0]);
+  const auto p0 = toVec3d(p[0]);
   std::size_t i1 = 0;
   double best = 0;
   for (std::size_t i = 0; i < p.size(); ++i) {
-    const auto d = sub(d3(p[i]), p0);
-    const double l = dotd(d, d);
+    const auto d = sub(toVec3d(p[i]), p0);
+    const double l = dot(d, d);
     if (l > best) best = l, i1 = i;
   }
   if (best == 0) return 0;
   const double extent = std::sqrt(best);
   const double tol = rel_tol * extent;
-  auto dir = sub(d3(p[i1]), p0);
+  auto dir = sub(toVec3d(p[i1]), p0);
   for (double& c : dir) c /= extent;
   std::size_t i2 = 0;
   best = 0;
   for (std::size_t i = 0; i < p.size(); ++i) {
-    const auto d = sub(d3(p[i]), p0);
+    const auto d = sub(toVec3d(p[i]), p0);
     const auto c = cross(dir, d);
-    const double l = dotd(c, c);
+    const double l = dot(c, c);
     if (l > best) best = l, i2 = i;
   }
   basis[0] = dir[0], basis[1] = dir[1], basis[2] = dir[2];
   if (std::sqrt(best) <= tol) return 1;
-  auto w = sub(d3(p[i2]), p0);
-  const double t = dotd(w, dir);
+  auto w = sub(toVec3d(p[i2]), p0);
+  const double t = dot(w, dir);
   for (int a = 0; a < 3; ++a) w[a] -= t * dir[a];
-  const double wl = std::sqrt(dotd(w, w));
+  const double wl = std::sqrt(dot(w, w));
   for (double& c : w) c /= wl;
   basis[3] = w[0], basis[4] = w[1], basis[5] = w[2];
   const auto nrm = cross(dir, w);
   double off = 0;
-  for (const Vec3f& q : p) off = std::max(off, std::fabs(dotd(sub(d3(q), p0), nrm)));
+  for (const Vec3f& q : p) off = std::max(off, std::fabs(dot(sub(toVec3d(q), p0), nrm)));
   return off <= tol ? 2 : 3;
 }
 

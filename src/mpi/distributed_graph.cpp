@@ -10,7 +10,6 @@
 #include <chrono>
 #include <climits>
 #include <cmath>
-#include <csignal>
 #include <cstring>
 #include <deque>
 #include <limits>
@@ -21,6 +20,7 @@
 #include "pcl_delaunay_walk/core/builder3d/rounded_circumsphere.h"
 #include "pcl_delaunay_walk/core/predicates_3d.h"
 #include "pcl_delaunay_walk/core/space_filling_curve.h"
+#include "pcl_delaunay_walk/core/vec3d.h"
 
 namespace dw {
 namespace mpi {
@@ -681,48 +681,37 @@ class RankBlock {
 /// same operations in the same order, so that it decides the same way: returns the dimension at
 /// relative tolerances 1e-9 and 1e-6.
 std::pair<int, int> distributedDimension(MPI_Comm comm, const std::vector<Vec3f>& p, std::uint64_t first) {
-  auto d3 = [](const Vec3f& a) { return std::array<double, 3>{a.x, a.y, a.z}; };
-  auto sub = [](std::array<double, 3> a, std::array<double, 3> b) {
-    return std::array<double, 3>{a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-  };
-  auto dotd = [](std::array<double, 3> a, std::array<double, 3> b) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-  };
-  auto cross = [](std::array<double, 3> a, std::array<double, 3> b) {
-    return std::array<double, 3>{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                                 a[0] * b[1] - a[1] * b[0]};
-  };
   // Vertex 0 lives on the first rank with vertices (the only one with vertices and first id 0).
   const bool has0 = !p.empty() && first == 0;
   const Best b0{has0 ? 1.0 : -INFINITY, 0, has0 ? p[0] : Vec3f{0, 0, 0}, 0};
-  const auto p0 = d3(globalBest(comm, b0).p);
+  const auto p0 = toVec3d(globalBest(comm, b0).p);
   Best m{-1.0, ~0ull, {0, 0, 0}, 0};
   for (std::size_t i = 0; i < p.size(); ++i) {
-    const auto d = sub(d3(p[i]), p0);
-    const double l = dotd(d, d);
+    const auto d = sub(toVec3d(p[i]), p0);
+    const double l = dot(d, d);
     if (l > m.value) m = {l, first + i, p[i], 0};
   }
   const Best i1 = globalBest(comm, m);
   if (!(i1.value > 0)) return {0, 0};
   const double extent = std::sqrt(i1.value);
-  auto dir = sub(d3(i1.p), p0);
+  auto dir = sub(toVec3d(i1.p), p0);
   for (double& c : dir) c /= extent;
   m = {-1.0, ~0ull, {0, 0, 0}, 0};
   for (std::size_t i = 0; i < p.size(); ++i) {
-    const auto c = cross(dir, sub(d3(p[i]), p0));
-    const double l = dotd(c, c);
+    const auto c = cross(dir, sub(toVec3d(p[i]), p0));
+    const double l = dot(c, c);
     if (l > m.value) m = {l, first + i, p[i], 0};
   }
   const Best i2 = globalBest(comm, m);
   const double best2 = std::max(0.0, i2.value);
-  auto w = sub(d3(i2.p), p0);
-  const double t = dotd(w, dir);
+  auto w = sub(toVec3d(i2.p), p0);
+  const double t = dot(w, dir);
   for (int a = 0; a < 3; ++a) w[a] -= t * dir[a];
-  const double wl = std::sqrt(dotd(w, w));
+  const double wl = std::sqrt(dot(w, w));
   for (double& c : w) c /= wl;
   const auto nrm = cross(dir, w);
   double off = 0;
-  for (const Vec3f& q : p) off = std::max(off, std::fabs(dotd(sub(d3(q), p0), nrm)));
+  for (const Vec3f& q : p) off = std::max(off, std::fabs(dot(sub(toVec3d(q), p0), nrm)));
   MPI_Allreduce(MPI_IN_PLACE, &off, 1, MPI_DOUBLE, MPI_MAX, comm);
   auto dim = [&](double rel) {
     const double tol = rel * extent;
@@ -733,12 +722,6 @@ std::pair<int, int> distributedDimension(MPI_Comm comm, const std::vector<Vec3f>
 }
 
 }  // namespace
-
-void RankGraph::checkFault(const DistributedGraphOptions& o, const char* stage) const {
-  if (o.fault_rank != rank || o.fault_stage != stage) return;
-  if (o.fault_kill) std::raise(SIGKILL);
-  throw Error("injected failure on rank " + std::to_string(rank) + " at stage '" + stage + "'");
-}
 
 RankGraph buildGraphDistributed(MPI_Comm comm, const PointInputSet& input, const DistributedGraphOptions& o) {
   RankGraph g;
@@ -759,7 +742,7 @@ RankGraph buildGraphDistributed(MPI_Comm comm, const PointInputSet& input, const
   const std::vector<double> xyz = input.read(in_first, in_last);
   if (xyz.size() != 3 * (in_last - in_first)) throw Error(input.describe() + ": short read");
   g.timings.read_s = since(t0);
-  g.checkFault(o, "read");
+  o.fault.check(g.rank, "read");
   progress("read " + std::to_string(n_in) + " points on " + std::to_string(P) + " ranks");
 
   // 2. The single-process preparation (graph_builder.cpp), replayed: bounding box of the finite points,
@@ -862,7 +845,7 @@ RankGraph buildGraphDistributed(MPI_Comm comm, const PointInputSet& input, const
   g.first_vertex = static_cast<index_t>(base);
   g.vertices = nv;
   g.timings.sort_s = since(t0);
-  g.checkFault(o, "sort");
+  o.fault.check(g.rank, "sort");
   progress("sorted " + std::to_string(nv) + " distinct points along the Morton curve");
 
   // 4. Degenerate or tiny inputs take the single-process path on rank 0 (they are small or flat, and
@@ -929,7 +912,7 @@ RankGraph buildGraphDistributed(MPI_Comm comm, const PointInputSet& input, const
                   static_cast<index_t>(base + g.points.size()));
   block.triangulate();
   g.timings.block_s = since(t0);
-  g.checkFault(o, "block");
+  o.fault.check(g.rank, "block");
   progress("blocks triangulated (own cells plus one ring)");
 
   // 7. The global hull: its boundary points are on some block's local hull; rank 0 triangulates the
@@ -977,7 +960,7 @@ RankGraph buildGraphDistributed(MPI_Comm comm, const PointInputSet& input, const
 
   // 8. Certify: grow halos (fetching cells) until every tetrahedron around the own vertices is global.
   t0 = std::chrono::steady_clock::now();
-  g.checkFault(o, "grow");
+  o.fault.check(g.rank, "grow");
   // One rank holds every point: its triangulation is the global one, nothing to certify.
   if (P > 1) block.certify(hull_ids);
   g.edges = block.edges();

@@ -7,7 +7,6 @@
 #include <chrono>
 #include <climits>
 #include <cmath>
-#include <csignal>
 #include <numeric>
 
 #include "pcl_delaunay_walk/core/las/las_reader.h"
@@ -77,12 +76,6 @@ SlabPoints usedPoints(const SlabPoints& pool, const std::vector<index_t>& triang
 
 }  // namespace
 
-void RankTin::checkFault(const DistributedTinOptions& o, const char* stage) const {
-  if (o.fault_rank != rank || o.fault_stage != stage) return;
-  if (o.fault_kill) std::raise(SIGKILL);
-  throw Error("injected failure on rank " + std::to_string(rank) + " at stage '" + stage + "'");
-}
-
 RankTin triangulateDistributed(MPI_Comm comm, const DistributedTinOptions& options) {
   RankTin t;
   MPI_Comm_rank(comm, &t.rank);
@@ -117,7 +110,7 @@ RankTin triangulateDistributed(MPI_Comm comm, const DistributedTinOptions& optio
   for (std::size_t i = 0; i < mine.size(); ++i) mine[i].gid = base + i;
   t.timings.read_s = since(t0);
   progress("read " + std::to_string(total) + " points on " + std::to_string(P) + " ranks");
-  t.checkFault(options, "read");
+  options.fault.check(t.rank, "read");
 
   // 2. Long axis and equal-count splitters from a gathered sample.
   t0 = std::chrono::steady_clock::now();
@@ -204,12 +197,12 @@ RankTin triangulateDistributed(MPI_Comm comm, const DistributedTinOptions& optio
     group.hi = split[me + 1];
   }
   t.timings.leaf_s = since(t0);
-  t.checkFault(options, "leaf");
+  options.fault.check(t.rank, "leaf");
   progress("leaves done");
 
   // 5. Merge tree: at step s, rank r (r % 2s == 0) takes the group of rank r + s.
   t0 = std::chrono::steady_clock::now();
-  t.checkFault(options, "merge");  // every rank passes here, senders and receivers alike
+  options.fault.check(t.rank, "merge");  // every rank passes here, senders and receivers alike
   for (int step = 1; step < P; step *= 2) {
     if (me % (2 * step) == step) {
       sendGroup(comm, me - step, group);

@@ -6,10 +6,12 @@
 #include <fstream>
 #include <sstream>
 
+#include "manifest_file.h"
 #include "pcl_delaunay_walk/mpi/distributed_graph.h"
 
 namespace dw {
 namespace mpi {
+using detail::jsonString;
 namespace {
 
 constexpr char kMagic[8] = {'D', 'W', 'G', 'P', '0', '0', '0', '1'};
@@ -24,15 +26,6 @@ struct PieceHeader {
   std::uint64_t input_points, vertices, first_vertex, num_vertices, num_originals, num_edges;
   double origin[3];
 };
-
-std::string jsonString(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    if (static_cast<unsigned char>(c) >= 0x20) o += c;
-  }
-  return o + "\"";
-}
 
 template <class T>
 void readArray(std::ifstream& in, std::vector<T>& v, std::uint64_t n, std::uint64_t bytes_left,
@@ -95,7 +88,7 @@ void writeGraphPiecesAndManifest(MPI_Comm comm, const std::string& prefix, const
   const std::string manifest = prefix + ".manifest.json";
   const std::size_t slash = prefix.find_last_of('/');
   const std::string base = slash == std::string::npos ? prefix : prefix.substr(slash + 1);
-  part.checkFault(o, "write");
+  o.fault.check(part.rank, "write");
   const std::uint64_t bytes = writeGraphPiece(prefix + ".rank" + std::to_string(part.rank) + ".dwgp", part);
   std::uint64_t mine[3] = {bytes, part.gathered_fallback ? 0 : part.points.size(),
                            part.gathered_fallback ? 0 : part.edges.size()};
@@ -113,14 +106,7 @@ void writeGraphPiecesAndManifest(MPI_Comm comm, const std::string& prefix, const
        << ", \"vertices\": " << all[3 * r + 1] << ", \"edges\": " << all[3 * r + 2] << "}"
        << (r + 1 < part.size ? "," : "") << "\n";
   js << "  ],\n  \"complete\": true\n}\n";
-  const std::string tmp = manifest + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << js.str();
-    out.close();
-    if (!out) throw Error(tmp + ": write failed");
-  }
-  if (std::rename(tmp.c_str(), manifest.c_str()) != 0) throw Error(manifest + ": rename failed");
+  detail::writeFileAtomically(manifest, js.str());
 }
 
 DelaunayGraph readGraphPieces(const std::string& manifest) {

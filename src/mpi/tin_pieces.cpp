@@ -6,11 +6,13 @@
 #include <fstream>
 #include <sstream>
 
+#include "manifest_file.h"
 #include "pcl_delaunay_walk/core/tin/ply_writer.h"
 #include "pcl_delaunay_walk/mpi/distributed_tin.h"
 
 namespace dw {
 namespace mpi {
+using detail::jsonString;
 namespace {
 
 double worldX(const RankTin& t, double x) {
@@ -50,15 +52,6 @@ class GidIndex {
   unsigned shift_ = 0;
   std::vector<std::size_t> start_;
 };
-
-std::string jsonString(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    if (static_cast<unsigned char>(c) >= 0x20) o += c;
-  }
-  return o + "\"";
-}
 
 }  // namespace
 
@@ -110,7 +103,7 @@ void writePiecesAndManifest(MPI_Comm comm, const std::string& prefix, const Rank
   const std::string piece = prefix + ".rank" + std::to_string(t.rank) + ".ply";
   const std::string piece_name =
       piece.substr(piece.find_last_of('/') == std::string::npos ? 0 : piece.find_last_of('/') + 1);
-  t.checkFault(options, "write");
+  options.fault.check(t.rank, "write");
   const std::uint64_t mine[2] = {writePiece(piece, t), t.emitted.triangles.size() / 3};
   // The gather is also the barrier: no rank reaches it before its piece is closed.
   std::vector<std::uint64_t> all(2 * static_cast<std::size_t>(t.size));
@@ -129,14 +122,7 @@ void writePiecesAndManifest(MPI_Comm comm, const std::string& prefix, const Rank
     tris += all[2 * r + 1];
   }
   js << "  ],\n  \"triangles\": " << tris << ",\n  \"complete\": true\n}\n";
-  const std::string tmp = manifest + ".tmp";
-  {
-    std::ofstream o(tmp, std::ios::binary | std::ios::trunc);
-    o << js.str();
-    o.close();
-    if (!o) throw Error(tmp + ": write failed");
-  }
-  if (std::rename(tmp.c_str(), manifest.c_str()) != 0) throw Error(manifest + ": rename failed");
+  detail::writeFileAtomically(manifest, js.str());
 }
 
 std::vector<index_t> gatherTriangles(MPI_Comm comm, const RankTin& t) {
@@ -158,7 +144,7 @@ std::vector<index_t> gatherTriangles(MPI_Comm comm, const RankTin& t) {
 
 void writeGathered(MPI_Comm comm, const std::string& path, const RankTin& t,
                    const DistributedTinOptions& options) {
-  t.checkFault(options, "write");
+  options.fault.check(t.rank, "write");
   const std::vector<index_t> tris = gatherTriangles(comm, t);
   // Every rank's used vertices, as (gid, x, y, z) records.
   struct V {

@@ -9,26 +9,7 @@ file(MAKE_DIRECTORY ${WORK})
 set(prefix ${WORK}/graph)
 set(manifest ${prefix}.manifest.json)
 
-function(run_app expect_ok np)
-  execute_process(COMMAND ${MPIEXEC} --oversubscribe -np ${np} ${APP} ${ARGN}
-                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 300)
-  if(expect_ok AND NOT rc EQUAL 0)
-    message(FATAL_ERROR "dw_graph_mpi ${ARGN} failed (${rc}):\n${out}\n${err}")
-  endif()
-  if(NOT expect_ok AND rc EQUAL 0)
-    message(FATAL_ERROR "dw_graph_mpi ${ARGN} should have failed but exited 0:\n${out}\n${err}")
-  endif()
-  message(STATUS "np ${np} ${ARGN}: exit ${rc}")
-endfunction()
-
-function(expect_manifest present)
-  if(present AND NOT EXISTS ${manifest})
-    message(FATAL_ERROR "no manifest after a successful run")
-  endif()
-  if(NOT present AND EXISTS ${manifest})
-    message(FATAL_ERROR "a manifest claims completeness after a failed run")
-  endif()
-endfunction()
+include(${CMAKE_CURRENT_LIST_DIR}/run_app_common.cmake)
 
 function(check_pieces input)
   execute_process(COMMAND ${CMAKE_COMMAND} -E env DW_MPI_GRAPH_MANIFEST=${manifest} DW_MPI_GRAPH_INPUT=${input}

@@ -17,6 +17,7 @@
 
 #include "pcl_delaunay_walk/core/delaunay_graph.h"
 #include "pcl_delaunay_walk/core/graph_builder.h"
+#include "pcl_delaunay_walk/mpi/fault_injection.h"
 #include "pcl_delaunay_walk/mpi/point_input_set.h"
 
 namespace dw {
@@ -30,11 +31,8 @@ struct DistributedGraphOptions {
   /// dragon, whose surface leaves most small cells empty) but a thicker first ring. Only speed depends
   /// on it, never the graph.
   int cell_shift = 1;
-  /// Testing hook: throw (fail) or SIGKILL (kill) on rank `fault_rank` at `fault_stage` ("read", "sort",
-  /// "block", "grow", "write"); empty: none.
-  std::string fault_stage;
-  int fault_rank = -1;
-  bool fault_kill = false;
+  /// Testing hook: fail or die on one rank at one stage ("read", "sort", "block", "grow", "write").
+  FaultInjection fault;
 };
 
 struct GraphRankTimings {
@@ -66,7 +64,6 @@ struct RankGraph {
   std::size_t hull_points = 0;     ///< global hull vertices (same on every rank)
   std::size_t cells = 0;           ///< grid cells of the halo unit (same on every rank)
   GraphRankTimings timings;
-  void checkFault(const DistributedGraphOptions& o, const char* stage) const;
 };
 
 /// Collective over `comm`: builds this rank's block of the Delaunay graph of `input`. Throws dw::Error

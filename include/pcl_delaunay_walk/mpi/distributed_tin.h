@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "pcl_delaunay_walk/mpi/fault_injection.h"
 #include "pcl_delaunay_walk/mpi/las_input_set.h"
 #include "pcl_delaunay_walk/mpi/slab_group.h"
 
@@ -28,11 +29,8 @@ struct DistributedTinOptions {
   std::uint64_t max_records = 0;  ///< use only the first max_records records (0: all); for weak scaling
   /// Progress lines (called on rank 0 only).
   std::function<void(const std::string&)> progress;
-  /// Testing hook: throw (fail) or SIGKILL (kill) on rank `fault_rank` at stage `fault_stage`
-  /// ("read", "leaf", "merge", "write"); empty: none.
-  std::string fault_stage;
-  int fault_rank = -1;
-  bool fault_kill = false;
+  /// Testing hook: fail or die on one rank at one stage ("read", "leaf", "merge", "write").
+  FaultInjection fault;
 };
 
 struct RankTimings {
@@ -49,7 +47,6 @@ struct RankTin {
   SlabPoints coords;  ///< frame x, y and world z of every vertex this rank's triangles use (by gid)
   RankTimings timings;
   /// Testing hook forwarded from the options.
-  void checkFault(const DistributedTinOptions& o, const char* stage) const;
 };
 
 /// Runs the whole distributed triangulation on `comm` (collective). Throws dw::Error on bad input or an

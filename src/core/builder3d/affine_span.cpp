@@ -27,8 +27,8 @@ bool collinear(const double* a, const double* b, const double* c) {
 
 }  // namespace
 
-bool spans3D(const Vec3f* points, const index_t* ids, std::size_t n, index_t* tetrahedron) {
-  if (n < 4) return false;
+int affineSpan(const Vec3f* points, const index_t* ids, std::size_t n, std::size_t positions[4]) {
+  if (n == 0) return -1;
   double p0[3], p1[3], p2[3], q[3];
   toDouble(points[ids[0]], p0);
   std::size_t k1 = 1;
@@ -36,27 +36,35 @@ bool spans3D(const Vec3f* points, const index_t* ids, std::size_t n, index_t* te
     toDouble(points[ids[k1]], p1);
     if (p1[0] != p0[0] || p1[1] != p0[1] || p1[2] != p0[2]) break;
   }
-  if (k1 >= n) return false;
+  if (k1 >= n) return 0;
   std::size_t k2 = k1 + 1;
   for (; k2 < n; ++k2) {
     toDouble(points[ids[k2]], p2);
     if (!collinear(p0, p1, p2)) break;
   }
-  if (k2 >= n) return false;
+  if (k2 >= n) return 1;
   for (std::size_t k3 = k1 + 1; k3 < n; ++k3) {
     if (k3 == k2) continue;
     toDouble(points[ids[k3]], q);
     if (predicates::orient3d(p0, p1, p2, q) != 0.0) {
-      if (tetrahedron) {
-        tetrahedron[0] = ids[0];
-        tetrahedron[1] = ids[k1];
-        tetrahedron[2] = ids[k2];
-        tetrahedron[3] = ids[k3];
+      if (positions) {
+        positions[0] = 0;
+        positions[1] = k1;
+        positions[2] = k2;
+        positions[3] = k3;
       }
-      return true;
+      return 3;
     }
   }
-  return false;
+  return 2;
+}
+
+bool spans3D(const Vec3f* points, const index_t* ids, std::size_t n, index_t* tetrahedron) {
+  std::size_t k[4];
+  if (affineSpan(points, ids, n, k) != 3) return false;
+  if (tetrahedron)
+    for (int j = 0; j < 4; ++j) tetrahedron[j] = ids[k[j]];
+  return true;
 }
 
 }  // namespace builder3d

@@ -8,6 +8,7 @@
 #include <string>
 #include <thread>
 
+#include "pcl_delaunay_walk/core/builder3d/affine_span.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/predicates_3d.h"
 
@@ -35,13 +36,6 @@ inline void otherTwo(unsigned i, unsigned j, unsigned& p, unsigned& q) {
   };
   p = table[i][j][0];
   q = table[i][j][1];
-}
-
-bool collinear(const double* a, const double* b, const double* c) {
-  const double ayz[2] = {a[1], a[2]}, byz[2] = {b[1], b[2]}, cyz[2] = {c[1], c[2]};
-  const double azx[2] = {a[2], a[0]}, bzx[2] = {b[2], b[0]}, czx[2] = {c[2], c[0]};
-  return predicates::orient2d(a, b, c) == 0.0 && predicates::orient2d(ayz, byz, cyz) == 0.0 &&
-         predicates::orient2d(azx, bzx, czx) == 0.0;
 }
 
 }  // namespace
@@ -134,26 +128,14 @@ void DelaunayKernel3D::build(const index_t* order, std::size_t n, const std::fun
 
   // The first tetrahedron: order[0], order[1] (distinct by contract), then the first point off
   // their line, then the first point off their plane.
-  double p0[3], p1[3], q[3];
-  point(order[0], p0);
-  point(order[1], p1);
-  if (p0[0] == p1[0] && p0[1] == p1[1] && p0[2] == p1[2])
+  if (points_[order[0]].x == points_[order[1]].x && points_[order[0]].y == points_[order[1]].y &&
+      points_[order[0]].z == points_[order[1]].z)
     throw Error("dw::DelaunayKernel3D::build: duplicate points (the input must be distinct)");
-  std::size_t kc = 2;
-  for (; kc < n; ++kc) {
-    point(order[kc], q);
-    if (!collinear(p0, p1, q)) break;
-  }
-  if (kc == n) throw Error("dw::DelaunayKernel3D::build: all points are collinear (not a 3D set)");
-  double p2[3];
-  point(order[kc], p2);
-  std::size_t kd = 2;
-  for (; kd < n; ++kd) {
-    if (kd == kc) continue;
-    point(order[kd], q);
-    if (predicates::orient3d(p0, p1, p2, q) != 0.0) break;
-  }
-  if (kd == n) throw Error("dw::DelaunayKernel3D::build: all points are coplanar (not a 3D set)");
+  std::size_t first[4];
+  const int dim = affineSpan(points_, order, n, first);
+  if (dim < 2) throw Error("dw::DelaunayKernel3D::build: all points are collinear (not a 3D set)");
+  if (dim < 3) throw Error("dw::DelaunayKernel3D::build: all points are coplanar (not a 3D set)");
+  const std::size_t kc = first[2], kd = first[3];  // first[1] is 1: order[1] differs from order[0]
 
   // ~6.75 per vertex on volumetric input; a little more here avoids a late reallocation, which would
   // hold old and new arrays at once (measured 324 B/point at 4M points against 216 at 1M).
