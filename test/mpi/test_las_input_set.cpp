@@ -22,7 +22,12 @@ using dw::las::LasRecord;
 using dw::las::LasWriter;
 using dw::mpi::LasInputSet;
 
-const std::string kDir = std::string(DW_BINARY_DIR) + "/test_las_input_set";
+// One directory per test: ctest runs the tests of this binary as parallel processes, and a shared
+// source.las written by one test while another reads it made them flaky.
+std::string testDir() {
+  return std::string(DW_BINARY_DIR) + "/test_las_input_set/" +
+         ::testing::UnitTest::GetInstance()->current_test_info()->name();
+}
 
 /// Writes records [first, last) of `src` into `path`, with the source's header but the x/y offset moved
 /// by `shift` scaled units (records moved back, so world coordinates stay put).
@@ -50,8 +55,8 @@ void writePart(const std::string& src, const std::string& path, std::uint64_t fi
 }
 
 std::string makeSource(std::size_t n) {
-  std::filesystem::create_directories(kDir);
-  const std::string path = kDir + "/source.las";
+  std::filesystem::create_directories(testDir());
+  const std::string path = testDir() + "/source.las";
   LasHeader h;
   h.point_format = 1;
   h.scale[0] = h.scale[1] = h.scale[2] = 0.01;
@@ -86,7 +91,7 @@ std::vector<Pt> collect(const LasInputSet& s, std::uint64_t first, std::uint64_t
 
 TEST(LasInputSet, SplitFilesReadLikeTheWholeFile) {
   const std::string src = makeSource(5000);
-  const std::string a = kDir + "/a.las", b = kDir + "/b.las", c = kDir + "/c.las";
+  const std::string a = testDir() + "/a.las", b = testDir() + "/b.las", c = testDir() + "/c.las";
   writePart(src, a, 0, 700);
   writePart(src, b, 700, 701);  // one record
   writePart(src, c, 701, 5000);
@@ -117,7 +122,7 @@ TEST(LasInputSet, SplitFilesReadLikeTheWholeFile) {
 
 TEST(LasInputSet, DifferentOffsetsShareOneScaledFrame) {
   const std::string src = makeSource(1000);
-  const std::string a = kDir + "/s0.las", b = kDir + "/s1.las";
+  const std::string a = testDir() + "/s0.las", b = testDir() + "/s1.las";
   writePart(src, a, 0, 400);
   writePart(src, b, 400, 1000, 12345);
   const LasInputSet parts({a, b});
@@ -137,24 +142,24 @@ TEST(LasInputSet, DifferentOffsetsShareOneScaledFrame) {
 TEST(LasInputSet, PathListAndBadInput) {
   makeSource(10);
   {
-    std::ofstream l(kDir + "/list.txt");
-    l << "# parts\n\nsource.las\n  " << kDir << "/source.las  \r\n";
+    std::ofstream l(testDir() + "/list.txt");
+    l << "# parts\n\nsource.las\n  " << testDir() << "/source.las  \r\n";
   }
-  const std::vector<std::string> p = dw::mpi::readPathList(kDir + "/list.txt");
+  const std::vector<std::string> p = dw::mpi::readPathList(testDir() + "/list.txt");
   ASSERT_EQ(p.size(), 2u);
-  EXPECT_EQ(p[0], kDir + "/source.las");
-  EXPECT_EQ(p[1], kDir + "/source.las");
+  EXPECT_EQ(p[0], testDir() + "/source.las");
+  EXPECT_EQ(p[1], testDir() + "/source.las");
   EXPECT_EQ(LasInputSet(p).size(), 20u);
-  { std::ofstream l(kDir + "/empty.txt"); }
-  EXPECT_THROW(dw::mpi::readPathList(kDir + "/empty.txt"), dw::Error);
-  EXPECT_THROW(dw::mpi::readPathList(kDir + "/no-such-list.txt"), dw::Error);
+  { std::ofstream l(testDir() + "/empty.txt"); }
+  EXPECT_THROW(dw::mpi::readPathList(testDir() + "/empty.txt"), dw::Error);
+  EXPECT_THROW(dw::mpi::readPathList(testDir() + "/no-such-list.txt"), dw::Error);
   EXPECT_THROW(LasInputSet({}), dw::Error);
-  EXPECT_THROW(LasInputSet({kDir + "/source.las", kDir + "/missing.las"}), dw::Error);
+  EXPECT_THROW(LasInputSet({testDir() + "/source.las", testDir() + "/missing.las"}), dw::Error);
   {
-    std::ofstream bad(kDir + "/bad.las");
+    std::ofstream bad(testDir() + "/bad.las");
     bad << "not a LAS file at all";
   }
-  EXPECT_THROW(LasInputSet({kDir + "/bad.las"}), dw::Error);
+  EXPECT_THROW(LasInputSet({testDir() + "/bad.las"}), dw::Error);
 }
 
 // Helper for test/mpi_run: DW_MPI_SPLIT="in.las;outdir" writes three unequal parts of in.las and
