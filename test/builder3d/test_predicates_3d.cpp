@@ -127,6 +127,38 @@ TEST(Predicates3D, NearlyDegenerateInputNeedsTheExactPath) {
   EXPECT_GT(zero_sphere, 100);
 }
 
+TEST(Predicates3D, Orient3dFacesEqualsFourOrient3d) {
+  // The walk's shared-difference form: out[f] must have the sign of orient3d with p in slot f, on
+  // random, nearly coplanar (p on or next to a face's plane) and exactly degenerate input.
+  std::mt19937_64 rng(5);
+  int zeros = 0;
+  for (int it = 0; it < 20000; ++it) {
+    const std::int64_t range = it % 3 == 0 ? 4 : (1 << 19);
+    double q[4][3];
+    P qp[4];
+    for (int k = 0; k < 4; ++k) {
+      qp[k] = randomInt(rng, range);
+      for (int c = 0; c < 3; ++c) q[k][c] = qp[k][c];
+    }
+    P p = randomInt(rng, range);
+    if (it % 3 == 1) {  // on the plane of face (0, 1, 2) (parallelogram), then maybe nudged
+      for (int c = 0; c < 3; ++c) p[c] = qp[0][c] + qp[1][c] - qp[2][c];
+      p[it % 2] += static_cast<int>(it % 5) - 2;
+      if (std::max({std::fabs(p[0]), std::fabs(p[1]), std::fabs(p[2])}) >= (1 << 20)) continue;
+    }
+    double out[4];
+    dw::predicates::orient3dFaces(q, p.data(), out);
+    for (int f = 0; f < 4; ++f) {
+      P t[4] = {qp[0], qp[1], qp[2], qp[3]};
+      t[f] = p;
+      const int ref = orientRef(t[0], t[1], t[2], t[3]);
+      ASSERT_EQ(signOf(out[f]), ref) << "iteration " << it << ", face " << f;
+      zeros += ref == 0;
+    }
+  }
+  EXPECT_GT(zeros, 1000);  // exact zeros were exercised
+}
+
 TEST(Predicates3D, FractionalAndHugeMagnitudes) {
   // Scaling by a power of two is exact, so signs must be invariant under it: covers tiny and huge
   // magnitudes (short of underflow/overflow of the degree-5 products) where a fixed-epsilon filter fails.

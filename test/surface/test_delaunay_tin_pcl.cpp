@@ -11,9 +11,9 @@
 #include <limits>
 #include <random>
 
+#include "../tin/tin_test_util.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/surface/delaunay_tin.h"
-#include "../tin/tin_test_util.h"
 
 namespace {
 

@@ -29,6 +29,22 @@ constexpr double kEps = 1.1102230246251565e-16;
 constexpr double kO3dBoundA = (7.0 + 56.0 * kEps) * kEps;
 constexpr double kIspBoundA = (16.0 + 224.0 * kEps) * kEps;
 constexpr double kO2dBoundA = (3.0 + 16.0 * kEps) * kEps;
+
+// Semi-static filters: before the permanent is formed, the same stage-A bound is tried with the
+// permanent replaced by its upper bound from M, the largest |coordinate difference| (orient3d: at
+// most 6 M^3, insphere: 72 M^5, from the numbers of products; the factors add room for rounding in
+// forming M^k). Cheaper (no permanent), valid whenever M^k neither overflows (then the bound is inf)
+// nor underflows (checked: below kStaticMin the permanent is formed as before).
+constexpr double kO3dStatic = kO3dBoundA * 6.0 * (1.0 + 16.0 * kEps);
+constexpr double kIspStatic = kIspBoundA * 72.0 * (1.0 + 32.0 * kEps);
+constexpr double kStaticMin = 1e-250;
+/// max for the filters (maxsd; std::fmax's NaN rules cost a call or a blend).
+inline double maxOf(double a, double b) {
+  return a > b ? a : b;
+}
+inline double maxAbs(double a, double b, double c, double d) {
+  return maxOf(maxOf(std::fabs(a), std::fabs(b)), maxOf(std::fabs(c), std::fabs(d)));
+}
 }  // namespace detail
 
 /// Sign-exact orient2d on (x, y): positive when a, b, c turn counter-clockwise. The returned value has
@@ -51,12 +67,51 @@ inline double orient3d(const double* a, const double* b, const double* c, const 
   const double cdxady = cdx * ady, adxcdy = adx * cdy;
   const double adxbdy = adx * bdy, bdxady = bdx * ady;
   const double det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
+  {
+    const double m =
+        detail::maxOf(detail::maxOf(detail::maxAbs(adx, ady, adz, bdx), detail::maxAbs(bdy, bdz, cdx, cdy)),
+                      std::fabs(cdz));
+    const double m3 = m * m * m;
+    const double sbound = detail::kO3dStatic * m3;
+    if (m3 > detail::kStaticMin && (det > sbound || -det > sbound)) return det;
+  }
   const double permanent = (std::fabs(bdxcdy) + std::fabs(cdxbdy)) * std::fabs(adz) +
                            (std::fabs(cdxady) + std::fabs(adxcdy)) * std::fabs(bdz) +
                            (std::fabs(adxbdy) + std::fabs(bdxady)) * std::fabs(cdz);
   const double bound = detail::kO3dBoundA * permanent;
   if (det > bound || -det > bound) return det;
   return detail::orient3dExact(a, b, c, d);
+}
+
+/// The four orient3d of tetrahedron q with p in place of vertex f: out[f] = orient3d(q with q[f] := p),
+/// each with the exact sign. What a visibility walk asks at every step; sharing the differences q[k] - p
+/// and their xy minors costs about half of four separate calls. Each value is the very arithmetic of
+/// orient3d(., ., ., p) on three of the q's (so its filter applies), negated where moving p to the last
+/// slot is an odd permutation; an undecided one is recomputed by orient3d.
+inline void orient3dFaces(const double q[4][3], const double* p, double out[4]) {
+  double d[4][3];
+  for (int k = 0; k < 4; ++k)
+    for (int c = 0; c < 3; ++c) d[k][c] = q[k][c] - p[c];
+  // m(i, j) = d_i.x d_j.y - d_j.x d_i.y; det(i, j, k) = d_i.z m(j, k) + d_j.z m(k, i) + d_k.z m(i, j).
+  auto minor = [&](int i, int j) { return d[i][0] * d[j][1] - d[j][0] * d[i][1]; };
+  const double m01 = minor(0, 1), m12 = minor(1, 2), m20 = minor(2, 0);
+  const double m31 = minor(3, 1), m23 = minor(2, 3), m03 = minor(0, 3), m30 = -m03, m13 = -m31, m32 = -m23;
+  out[3] = d[0][2] * m12 + d[1][2] * m20 + d[2][2] * m01;     // det(0, 1, 2)
+  out[0] = -(d[3][2] * m12 + d[1][2] * m23 + d[2][2] * m31);  // -det(3, 1, 2)
+  out[1] = -(d[0][2] * m32 + d[3][2] * m20 + d[2][2] * m03);  // -det(0, 3, 2)
+  out[2] = -(d[0][2] * m13 + d[1][2] * m30 + d[3][2] * m01);  // -det(0, 1, 3)
+  double m = 0.0;
+  for (int k = 0; k < 4; ++k) m = detail::maxOf(m, detail::maxAbs(d[k][0], d[k][1], d[k][2], 0.0));
+  const double m3 = m * m * m;
+  const double bound = m3 > detail::kStaticMin ? detail::kO3dStatic * m3 : HUGE_VAL;
+  for (int f = 0; f < 4; ++f) {
+    if (out[f] > bound || -out[f] > bound) continue;
+    const double* a = f == 0 ? p : q[0];
+    const double* b = f == 1 ? p : q[1];
+    const double* c = f == 2 ? p : q[2];
+    const double* e = f == 3 ? p : q[3];
+    out[f] = orient3d(a, b, c, e);
+  }
 }
 
 /// Sign-exact insphere (see the file comment for the convention). Zero when the five points are
@@ -81,6 +136,14 @@ inline double insphere(const double* a, const double* b, const double* c, const 
   const double clift = cex * cex + cey * cey + cez * cez;
   const double dlift = dex * dex + dey * dey + dez * dez;
   const double det = (dlift * abc - clift * dab) + (blift * cda - alift * bcd);
+  {
+    const double m =
+        detail::maxOf(detail::maxOf(detail::maxAbs(aex, bex, cex, dex), detail::maxAbs(aey, bey, cey, dey)),
+                      detail::maxAbs(aez, bez, cez, dez));
+    const double m2 = m * m, m5 = m2 * m2 * m;
+    const double sbound = detail::kIspStatic * m5;
+    if (m5 > detail::kStaticMin && (det > sbound || -det > sbound)) return det;
+  }
 
   const double aezp = std::fabs(aez), bezp = std::fabs(bez), cezp = std::fabs(cez), dezp = std::fabs(dez);
   const double aexbeyp = std::fabs(aexbey) + std::fabs(bexaey);

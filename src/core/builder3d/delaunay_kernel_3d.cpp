@@ -7,6 +7,7 @@
 #include <exception>
 #include <string>
 #include <thread>
+#include <type_traits>
 
 #include "pcl_delaunay_walk/core/builder3d/affine_span.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
@@ -26,17 +27,19 @@ inline std::size_t hashKey(std::uint64_t k, unsigned bits) {
   return static_cast<std::size_t>((k * 0x9E3779B97F4A7C15ull) >> (64 - bits));
 }
 
-// The two positions other than i and j (i != j) in {0, 1, 2, 3}.
-inline void otherTwo(unsigned i, unsigned j, unsigned& p, unsigned& q) {
-  static constexpr std::uint8_t table[4][4][2] = {
-      {{0, 0}, {2, 3}, {1, 3}, {1, 2}},
-      {{2, 3}, {0, 0}, {0, 3}, {0, 2}},
-      {{1, 3}, {0, 3}, {0, 0}, {0, 1}},
-      {{1, 2}, {0, 2}, {0, 1}, {0, 0}},
-  };
-  p = table[i][j][0];
-  q = table[i][j][1];
-}
+// kForwardEdge[j][f] = {x, y}: face j (opposite vertex j) of a positively oriented tetrahedron, read
+// outward, is the cycle (f, x, y) for any f != j. Outward cycles: face 0 (1, 3, 2), face 1 (0, 2, 3),
+// face 2 (0, 3, 1), face 3 (0, 1, 2) (an even permutation puts the opposite vertex last; orient3d > 0
+// means the first three turn counter-clockwise seen from outside).
+// The three positions other than f.
+constexpr unsigned kOtherThree[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+
+constexpr unsigned kForwardEdge[4][4][2] = {
+    {{0, 0}, {3, 2}, {1, 3}, {2, 1}},
+    {{2, 3}, {0, 0}, {3, 0}, {0, 2}},
+    {{3, 1}, {0, 3}, {0, 0}, {1, 0}},
+    {{1, 2}, {2, 0}, {0, 1}, {0, 0}},
+};
 
 }  // namespace
 
@@ -47,6 +50,7 @@ void DelaunayKernel3D::setPoints(const Vec3f* points, std::size_t n) {
   if (n > 0 && points == nullptr) throw Error("dw::DelaunayKernel3D: null point array");
   points_ = points;
   num_points_ = n;
+  if (local_.size() < n) local_.resize(n, kNoLocal);
 }
 
 index_t DelaunayKernel3D::newTet() {
@@ -333,8 +337,9 @@ index_t DelaunayKernel3D::walkTo(const double* p, index_t t, Worker& w, const Ow
       t = nc >> 2;
       continue;
     }
-    double q[4][3];
+    double q[4][3], o[4];
     for (unsigned k = 0; k < 4; ++k) point(tv[k], q[k]);
+    predicates::orient3dFaces(q, p, o);
     const unsigned r = nextRandom(w.rng);
     bool moved = false;
     for (unsigned k = 0; k < 4; ++k) {
@@ -342,11 +347,7 @@ index_t DelaunayKernel3D::walkTo(const double* p, index_t t, Worker& w, const Ow
       const std::uint32_t nc = tet_n_[4 * std::size_t(t) + f];
       const index_t n = nc >> 2;
       if (n == prev) continue;
-      const double* a = f == 0 ? p : q[0];
-      const double* b = f == 1 ? p : q[1];
-      const double* c = f == 2 ? p : q[2];
-      const double* d = f == 3 ? p : q[3];
-      if (predicates::orient3d(a, b, c, d) < 0.0) {
+      if (o[f] < 0.0) {
         // n shares three owned vertices with t: it is owned when the fourth one is.
         if (!own.ownsVertex(load<Owner::kShared>(tet_v_[nc]))) return kNoTet;
         prev = t;
@@ -481,8 +482,16 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
   while (!w.stack.empty()) {
     const index_t c = w.stack.back();
     w.stack.pop_back();
+    // The four neighbours are scattered over a structure far larger than the caches: start all
+    // their loads now so that the misses overlap instead of following one another.
+    std::uint32_t ncs[4];
     for (unsigned f = 0; f < 4; ++f) {
-      const std::uint32_t nc = load<kShared>(tet_n_[4 * std::size_t(c) + f]);
+      ncs[f] = load<kShared>(tet_n_[4 * std::size_t(c) + f]);
+      __builtin_prefetch(&tet_v_[ncs[f] & ~3u]);
+      __builtin_prefetch(&mark_[ncs[f] >> 2]);
+    }
+    for (unsigned f = 0; f < 4; ++f) {
+      const std::uint32_t nc = ncs[f];
       const index_t n = nc >> 2;
       // n shares face f's three owned vertices with c: it is owned when its fourth vertex is.
       if (Owner::kShared && !own.ownsVertex(load<kShared>(tet_v_[nc]))) {
@@ -505,6 +514,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
           }
           mark_[n] = 2;
           w.outside.push_back(n);
+          __builtin_prefetch(&tet_n_[nc], 1);  // re-linked to a new tetrahedron below
         }
       }
       BoundaryFace bf;
@@ -520,62 +530,27 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
     if (boundary.size() > cavity.size() && !takeSlots(w, boundary.size() - cavity.size())) return false;
   }
 
-  // Link table for the faces through v: each cavity-boundary edge (a, b) is shared by exactly two
-  // boundary triangles, so the two new tetrahedra on it find each other by the key (a, b).
-  const std::size_t edges = boundary.size() * 3 / 2 + 1;
-  unsigned bits = 6;
-  while ((std::size_t(1) << bits) < 2 * edges) ++bits;
-  if (w.link_key.size() < (std::size_t(1) << bits)) {
-    w.link_key.assign(std::size_t(1) << bits, 0);
-    w.link_val.assign(std::size_t(1) << bits, 0);
-    w.link_gen.assign(std::size_t(1) << bits, 0);
-    w.generation = 0;
-  } else {
-    bits = 0;
-    while ((std::size_t(1) << bits) < w.link_key.size()) ++bits;
-  }
-  if (++w.generation == 0) {
-    std::fill(w.link_gen.begin(), w.link_gen.end(), 0u);
-    w.generation = 1;
-  }
-  const std::size_t mask = w.link_key.size() - 1;
-
-  index_t nt = 0;
+  // The new tetrahedra: boundary face k with v is tetrahedron k, put in cavity slot k while there is
+  // one. Each face through v (v and a boundary edge) is shared by the two new tetrahedra on the two
+  // boundary triangles of that edge: they find each other through the edge, below.
+  auto& made = w.made;
+  made.resize(boundary.size());
   for (std::size_t k = 0; k < boundary.size(); ++k) {
     const BoundaryFace& bf = boundary[k];
+    index_t nt;
     if (k < cavity.size())
       nt = cavity[k];
     else if constexpr (kShared)
       nt = takeSlot(w);
     else
       nt = newTet();
+    made[k] = nt;
     if (track_births_) birth_[nt] = static_cast<std::uint32_t>(num_inserted_ + 1);
     for (unsigned j = 0; j < 4; ++j) store<kShared>(tet_v_[4 * std::size_t(nt) + j], bf.v[j]);
     store<kShared>(tet_n_[4 * std::size_t(nt) + bf.face], bf.outer);
     store<kShared>(tet_n_[bf.outer], 4 * nt + bf.face);
-    for (unsigned j = 0; j < 4; ++j) {
-      if (j == bf.face) continue;
-      unsigned pa, pb;
-      otherTwo(j, bf.face, pa, pb);
-      const std::uint64_t key = edgeKey(bf.v[pa], bf.v[pb]);
-      std::size_t s = hashKey(key, bits);
-      for (;;) {
-        if (w.link_gen[s] != w.generation) {
-          w.link_gen[s] = w.generation;
-          w.link_key[s] = key;
-          w.link_val[s] = 4 * nt + j;
-          break;
-        }
-        if (w.link_key[s] == key) {
-          const std::uint32_t other = w.link_val[s];
-          store<kShared>(tet_n_[4 * std::size_t(nt) + j], other);
-          store<kShared>(tet_n_[other], 4 * nt + j);
-          break;
-        }
-        s = (s + 1) & mask;
-      }
-    }
   }
+  linkNewTetrahedra(w);
   w.stats.created_tets += boundary.size();
   for (std::size_t k = boundary.size(); k < cavity.size(); ++k) {
     store<kShared>(tet_v_[4 * std::size_t(cavity[k])], kDead);
@@ -584,12 +559,100 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
     else
       free_.push_back(cavity[k]);
   }
-  w.last_tet = nt;
+  w.last_tet = made.back();
   if constexpr (kShared)
     ++w.stats.parallel_inserted;
   else
     ++num_inserted_;
   return true;
+}
+
+void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
+  // The boundary is a closed triangulated surface: each of its edges (x, y) lies in exactly two
+  // boundary triangles, which pass it in opposite directions when both are read outward-oriented. The
+  // new tetrahedron on one triangle records itself under the directed edge x -> y, and finds its
+  // neighbour under y -> x. Small boundaries (nearly all) index a V x V table by the boundary
+  // vertices' local numbers: two branch-free passes, no probing. Larger ones use a hash on the edge.
+  const auto& boundary = w.boundary;
+  const auto& made = w.made;
+  auto& verts = w.boundary_vertices;
+  auto& corner = w.corner_local;  // per new tetrahedron, the local numbers of its four vertices
+  verts.resize(3 * boundary.size());
+  corner.resize(4 * boundary.size());
+  w.infinite_local = kNoLocal;
+  auto localOf = [&](index_t x) -> std::uint32_t& { return x == kInfinite ? w.infinite_local : local_[x]; };
+  // Branch-free numbering (whether a vertex is new is a coin flip to the branch predictor).
+  std::uint32_t nv = 0;
+  for (std::size_t k = 0; k < boundary.size(); ++k) {
+    const BoundaryFace& bf = boundary[k];
+    for (unsigned i = 0; i < 3; ++i) {
+      const unsigned j = kOtherThree[bf.face][i];
+      std::uint32_t& l = localOf(bf.v[j]);
+      const std::uint32_t old = l;
+      const bool fresh = old == kNoLocal;
+      verts[nv] = bf.v[j];
+      l = fresh ? nv : old;
+      corner[4 * k + j] = l;
+      nv += fresh;
+    }
+  }
+  verts.resize(nv);
+  if (nv <= kDirectLinkMax) {
+    auto& table = w.link_direct;
+    if (table.size() < std::size_t(nv) * nv) table.resize(kDirectLinkMax * kDirectLinkMax);
+    for (std::size_t k = 0; k < boundary.size(); ++k) {
+      const unsigned f = boundary[k].face;
+      const std::uint32_t* c = &corner[4 * k];
+      for (unsigned i = 0; i < 3; ++i) {
+        const unsigned j = kOtherThree[f][i];
+        const unsigned* xy = kForwardEdge[j][f];
+        table[c[xy[0]] * nv + c[xy[1]]] = 4 * made[k] + j;
+      }
+    }
+    for (std::size_t k = 0; k < boundary.size(); ++k) {
+      const unsigned f = boundary[k].face;
+      const std::uint32_t* c = &corner[4 * k];
+      for (unsigned i = 0; i < 3; ++i) {
+        const unsigned j = kOtherThree[f][i];
+        const unsigned* xy = kForwardEdge[j][f];
+        store<true>(tet_n_[4 * std::size_t(made[k]) + j], table[c[xy[1]] * nv + c[xy[0]]]);
+      }
+    }
+  } else {
+    // Open addressing on the undirected edge, at most a quarter full; generations tell this
+    // insertion's entries from earlier ones.
+    const std::size_t edges = boundary.size() * 3 / 2 + 1;
+    unsigned bits = 6;
+    while ((std::size_t(1) << bits) < 4 * edges) ++bits;
+    if (w.link.size() < (std::size_t(1) << bits)) w.link.resize(std::size_t(1) << bits, LinkEntry{});
+    if (++w.generation == 0) {
+      for (auto& e : w.link) e.generation = 0;
+      w.generation = 1;
+    }
+    const std::size_t mask = (std::size_t(1) << bits) - 1;
+    for (std::size_t k = 0; k < boundary.size(); ++k) {
+      const BoundaryFace& bf = boundary[k];
+      const index_t nt = made[k];
+      for (unsigned i = 0; i < 3; ++i) {
+        const unsigned j = kOtherThree[bf.face][i];
+        const unsigned* xy = kForwardEdge[j][bf.face];
+        const std::uint64_t key = edgeKey(bf.v[xy[0]], bf.v[xy[1]]);
+        for (std::size_t s = hashKey(key, bits);; s = (s + 1) & mask) {
+          LinkEntry& e = w.link[s];
+          if (e.generation != w.generation) {
+            e = LinkEntry{key, 4 * nt + j, w.generation};
+            break;
+          }
+          if (e.key == key) {
+            store<true>(tet_n_[4 * std::size_t(nt) + j], e.face);
+            store<true>(tet_n_[e.face], 4 * nt + j);
+            break;
+          }
+        }
+      }
+    }
+  }
+  for (index_t x : verts) localOf(x) = kNoLocal;
 }
 
 void DelaunayKernel3D::insertParallel(const index_t* ids, std::size_t m, unsigned num_threads) {
@@ -793,16 +856,26 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const std::vector<in
   // 1. Occurrences per smaller endpoint a in [first, last) (edges of infinite tetrahedra also lie in
   // finite ones); `occurrences` is indexed by a - first.
   std::vector<std::uint32_t> occurrences(last - first + 1, 0);
-  parallelFor(nt, workers, [&](std::size_t tb, std::size_t te, unsigned) {
-    for (std::size_t t = tb; t < te; ++t) {
-      const index_t* tv = &tet_v_[4 * t];
-      if (!live(tv)) continue;
-      for (const auto& pr : kPairs) {
-        const index_t a = std::min(tv[pr[0]], tv[pr[1]]);
-        if (a >= first && a < last) __atomic_fetch_add(&occurrences[a - first], 1u, __ATOMIC_RELAXED);
+  auto countOccurrences = [&](auto shared) {
+    parallelFor(nt, workers, [&](std::size_t tb, std::size_t te, unsigned) {
+      for (std::size_t t = tb; t < te; ++t) {
+        const index_t* tv = &tet_v_[4 * t];
+        if (!live(tv)) continue;
+        for (const auto& pr : kPairs) {
+          const index_t a = std::min(tv[pr[0]], tv[pr[1]]);
+          if (a < first || a >= last) continue;
+          if constexpr (decltype(shared)::value)
+            __atomic_fetch_add(&occurrences[a - first], 1u, __ATOMIC_RELAXED);
+          else
+            ++occurrences[a - first];  // one worker: a locked add per occurrence cost ~0.2 s at 1M points
+        }
       }
-    }
-  });
+    });
+  };
+  if (workers > 1)
+    countOccurrences(std::true_type{});
+  else
+    countOccurrences(std::false_type{});
   // Ranges of a with at most `budget` occurrences each (a single vertex may exceed it alone).
   const std::size_t budget = std::max<std::size_t>(std::size_t(1) << 18, 4 * (last - first) / num_threads);
   std::vector<std::size_t> range_start{first};
@@ -980,9 +1053,10 @@ void DelaunayKernel3D::validate() const {
 }
 
 std::size_t DelaunayKernel3D::memoryBytes() const {
-  return (tet_v_.capacity() + tet_n_.capacity() + birth_.capacity()) * sizeof(std::uint32_t) +
-         mark_.capacity() + free_.capacity() * sizeof(index_t) + seq_.link_key.capacity() * 8 +
-         (seq_.link_val.capacity() + seq_.link_gen.capacity()) * 4 +
+  return (tet_v_.capacity() + tet_n_.capacity() + birth_.capacity() + local_.capacity() +
+          seq_.link_direct.capacity() + seq_.made.capacity() + seq_.boundary_vertices.capacity()) *
+             sizeof(std::uint32_t) +
+         mark_.capacity() + free_.capacity() * sizeof(index_t) + seq_.link.capacity() * sizeof(LinkEntry) +
          (seq_.cavity.capacity() + seq_.stack.capacity() + seq_.outside.capacity()) * 4 +
          seq_.boundary.capacity() * sizeof(BoundaryFace);
 }

@@ -148,14 +148,26 @@ class DelaunayKernel3D {
     std::uint32_t face;   // local index of that face in the new tetrahedron
   };
 
+  // Link table entry: a cavity-boundary edge (key) and the face through it of the first new
+  // tetrahedron that reached it; valid when `generation` is the current insertion's.
+  struct LinkEntry {
+    std::uint64_t key = 0;
+    std::uint32_t face = 0;
+    std::uint32_t generation = 0;
+  };
+
   // One inserting thread's scratch (reused across insertions to keep the hot loop allocation-free),
   // and in a parallel pass its own recycled and fresh tetrahedron slots.
   // Aligned to keep one thread's hot counters and vector headers off another's cache lines.
   struct alignas(128) Worker {
     std::vector<index_t> cavity, stack, outside;
     std::vector<BoundaryFace> boundary;
-    std::vector<std::uint64_t> link_key;
-    std::vector<std::uint32_t> link_val, link_gen;
+    std::vector<index_t> made;                // the new tetrahedra, one per boundary face
+    std::vector<index_t> boundary_vertices;   // their local numbering (linkNewTetrahedra)
+    std::vector<std::uint32_t> corner_local;  // local numbers of each new tetrahedron's vertices
+    std::uint32_t infinite_local = 0;         // the infinite vertex's local number (shared vertex)
+    std::vector<std::uint32_t> link_direct;   // V x V directed-edge table
+    std::vector<LinkEntry> link;              // hash for boundaries of more than kDirectLinkMax vertices
     std::uint32_t generation = 0;
     std::vector<index_t> free;  // parallel pass: slots this thread took from the pool or recycled
     index_t last_tet = 0;
@@ -177,6 +189,8 @@ class DelaunayKernel3D {
   // the hull); kNoTet after `guard` steps or, with a sharing owner, where it would leave what it owns.
   template <class Owner>
   index_t walkTo(const double* p, index_t start, Worker& w, const Owner& own, std::uint64_t guard) const;
+  // Sets the adjacency between the new tetrahedra w.made (on the faces through the new vertex).
+  void linkNewTetrahedra(Worker& w);
   bool takeSlots(Worker& w, std::size_t count);
   index_t takeSlot(Worker& w);
   void runParallelPass(std::vector<index_t>& pending, unsigned threads, unsigned pass);
@@ -209,6 +223,11 @@ class DelaunayKernel3D {
   std::vector<std::uint8_t> mark_;    // per tetrahedron: 0 unknown, 1 in cavity, 2 tested outside
   std::vector<index_t> free_;         // recycled tetrahedra
   std::vector<std::uint32_t> birth_;  // per tetrahedron, with track_births_
+  // Per vertex: its number among the current cavity boundary's vertices, else kNoLocal (4 bytes per
+  // point; in a parallel pass each thread touches only vertices it owns).
+  static constexpr std::uint32_t kNoLocal = 0xFFFFFFFFu;
+  static constexpr std::size_t kDirectLinkMax = 64;
+  std::vector<std::uint32_t> local_;
   bool track_births_ = false;
 
   Worker seq_;  // the calling thread's scratch (insert(), build(), the sequential rest of a batch)
