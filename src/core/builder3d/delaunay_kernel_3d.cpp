@@ -71,7 +71,7 @@ index_t DelaunayKernel3D::newTet() {
   }
   tet_v_.resize(tet_v_.size() + 4);
   tet_n_.resize(tet_n_.size() + 4);
-  mark_.push_back(0);
+  mark_.push_back(Mark::kUnknown);
   if (track_births_) birth_.push_back(static_cast<std::uint32_t>(num_inserted_));
   return static_cast<index_t>(t);
 }
@@ -466,22 +466,20 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
 
   // Cavity: every tetrahedron whose (perturbed) circumsphere contains v; connected, found by BFS.
   // Marks are set only on owned tetrahedra; a foreign neighbour is tested each time it is reached.
+  // The cavity list doubles as the search's queue.
   auto& cavity = w.cavity;
   auto& boundary = w.boundary;
   cavity.clear();
-  w.stack.clear();
   w.outside.clear();
   boundary.clear();
   auto clearMarks = [&] {
-    for (index_t o : w.outside) mark_[o] = 0;
-    for (index_t c : cavity) mark_[c] = 0;
+    for (index_t o : w.outside) mark_[o] = Mark::kUnknown;
+    for (index_t c : cavity) mark_[c] = Mark::kUnknown;
   };
-  mark_[t] = 1;
+  mark_[t] = Mark::kCavity;
   cavity.push_back(t);
-  w.stack.push_back(t);
-  while (!w.stack.empty()) {
-    const index_t c = w.stack.back();
-    w.stack.pop_back();
+  for (std::size_t next = 0; next < cavity.size(); ++next) {
+    const index_t c = cavity[next];
     // The four neighbours are scattered over a structure far larger than the caches: start all
     // their loads now so that the misses overlap instead of following one another.
     std::uint32_t ncs[4];
@@ -502,17 +500,16 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
           return false;
         }
       } else {
-        const std::uint8_t m = mark_[n];
-        if (m == 1) continue;
-        if (m == 0) {
+        const Mark m = mark_[n];
+        if (m == Mark::kCavity) continue;
+        if (m == Mark::kUnknown) {
           ++w.stats.conflict_tests;
           if (inConflict(n, v, p)) {
-            mark_[n] = 1;
+            mark_[n] = Mark::kCavity;
             cavity.push_back(n);
-            w.stack.push_back(n);
             continue;
           }
-          mark_[n] = 2;
+          mark_[n] = Mark::kOutside;
           w.outside.push_back(n);
           __builtin_prefetch(&tet_n_[nc], 1);  // re-linked to a new tetrahedron below
         }
@@ -708,7 +705,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
   }
   tet_v_.resize(4 * (used + fresh), kDead);
   tet_n_.resize(4 * (used + fresh), 0);
-  mark_.resize(used + fresh, 0);
+  mark_.resize(used + fresh, Mark::kUnknown);
   pool_.swap(free_);
   free_.clear();
   std::sort(pool_.begin(), pool_.end());
@@ -817,7 +814,7 @@ std::vector<index_t> DelaunayKernel3D::hullVertices() const {
 DelaunayKernel3D::EdgeChunks DelaunayKernel3D::releaseIntoEdgeChunks(unsigned num_threads) {
   // Only the vertex quadruples are needed from here on: free the rest before the edges are made.
   std::vector<std::uint32_t>().swap(tet_n_);
-  std::vector<std::uint8_t>().swap(mark_);
+  std::vector<Mark>().swap(mark_);
   std::vector<index_t>().swap(free_);
   std::vector<std::uint32_t>().swap(birth_);
   seq_ = Worker{};
@@ -1057,7 +1054,7 @@ std::size_t DelaunayKernel3D::memoryBytes() const {
           seq_.link_direct.capacity() + seq_.made.capacity() + seq_.boundary_vertices.capacity()) *
              sizeof(std::uint32_t) +
          mark_.capacity() + free_.capacity() * sizeof(index_t) + seq_.link.capacity() * sizeof(LinkEntry) +
-         (seq_.cavity.capacity() + seq_.stack.capacity() + seq_.outside.capacity()) * 4 +
+         (seq_.cavity.capacity() + seq_.outside.capacity()) * 4 +
          seq_.boundary.capacity() * sizeof(BoundaryFace);
 }
 

@@ -140,19 +140,19 @@ void DelaunayKernel3D::remove(index_t v) {
   // faces are the faces opposite v, oriented with v on their positive side, each with the neighbour
   // code of the tetrahedron outside.
   std::vector<index_t> star{root};
-  mark_[root] = 1;
+  mark_[root] = Mark::kCavity;
   for (std::size_t k = 0; k < star.size(); ++k) {
     const index_t c = star[k];
     for (unsigned f = 0; f < 4; ++f) {
       if (tet_v_[4 * std::size_t(c) + f] == v) continue;
       const index_t n = tet_n_[4 * std::size_t(c) + f] >> 2;
-      if (mark_[n] == 0) {
-        mark_[n] = 1;
+      if (mark_[n] == Mark::kUnknown) {
+        mark_[n] = Mark::kCavity;
         star.push_back(n);
       }
     }
   }
-  for (index_t c : star) mark_[c] = 0;
+  for (index_t c : star) mark_[c] = Mark::kUnknown;
 
   std::vector<FaceRecord> hole;
   hole.reserve(star.size());

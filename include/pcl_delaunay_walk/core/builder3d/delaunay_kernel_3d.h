@@ -160,7 +160,7 @@ class DelaunayKernel3D {
   // and in a parallel pass its own recycled and fresh tetrahedron slots.
   // Aligned to keep one thread's hot counters and vector headers off another's cache lines.
   struct alignas(128) Worker {
-    std::vector<index_t> cavity, stack, outside;
+    std::vector<index_t> cavity, outside;
     std::vector<BoundaryFace> boundary;
     std::vector<index_t> made;                // the new tetrahedra, one per boundary face
     std::vector<index_t> boundary_vertices;   // their local numbering (linkNewTetrahedra)
@@ -220,7 +220,10 @@ class DelaunayKernel3D {
   // the vertices: that keeps the builder's peak near one copy of the tetrahedra.
   std::vector<index_t> tet_v_;        // 4 per tetrahedron
   std::vector<std::uint32_t> tet_n_;  // 4 per tetrahedron: neighbour tet * 4 + the shared face's index there
-  std::vector<std::uint8_t> mark_;    // per tetrahedron: 0 unknown, 1 in cavity, 2 tested outside
+  // Per tetrahedron, during one insertion. Not a char type, so that its stores do not force the
+  // compiler to reload everything else (char may alias any object).
+  enum class Mark : std::uint8_t { kUnknown, kCavity, kOutside };
+  std::vector<Mark> mark_;
   std::vector<index_t> free_;         // recycled tetrahedra
   std::vector<std::uint32_t> birth_;  // per tetrahedron, with track_births_
   // Per vertex: its number among the current cavity boundary's vertices, else kNoLocal (4 bytes per
