@@ -12,9 +12,9 @@
 #include <mutex>
 #include <system_error>
 
+#include "../page_memory.h"
 #include "bowyer_watson.h"
 #include "merge_scheduler.h"
-#include "page_memory.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/predicates_2d.h"
 #include "strip_merge.h"
@@ -83,7 +83,7 @@ struct Release {
 bool runReleaseTask(const std::vector<Release>& blocks, std::size_t task) {
   for (const Release& r : blocks) {
     if (task < r.slices) {
-      detail::releaseSlice(r.p, r.bytes, task, r.slices);
+      dw::detail::releaseSlice(r.p, r.bytes, task, r.slices);
       return true;
     }
     task -= r.slices;
@@ -123,7 +123,7 @@ TinResult triangulate(std::vector<double>&& x, std::vector<double>&& y, const Ti
   // Page hints only pay off with several workers and big blocks.
   const bool parallel_pages = threads > 1 && n_in >= (1u << 16);
   auto slicesFor = [&](std::size_t bytes) {
-    return parallel_pages ? detail::pageSlices(bytes, 4 * std::size_t(threads)) : std::size_t(0);
+    return parallel_pages ? dw::detail::pageSlices(bytes, 4 * std::size_t(threads)) : std::size_t(0);
   };
 
   TinResult result;
@@ -187,7 +187,7 @@ TinResult triangulate(std::vector<double>&& x, std::vector<double>&& y, const Ti
   std::vector<ChunkScan> scan(chunks);
   team.forEach(prefault_slices + chunks, [&](std::size_t task) {
     if (task < prefault_slices) {
-      detail::prefaultSlice(tn_store.data(), tn_bytes, task, prefault_slices);
+      dw::detail::prefaultSlice(tn_store.data(), tn_bytes, task, prefault_slices);
       return;
     }
     ChunkScan& cs = scan[task - prefault_slices];

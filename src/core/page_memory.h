@@ -1,5 +1,6 @@
 /// \file page_memory.h
-/// \brief Mapping and unmapping the pages of big blocks from several threads (internal).
+/// \brief Mapping and unmapping the pages of big blocks from several threads (internal; the TIN's
+/// arrays and the 3D kernel's tetrahedra).
 ///
 /// Why: at tens of millions of points, taking a block's page faults (first touch) and giving its pages
 /// back (free) are each a measurable single-threaded step when one call does it for the whole block:
@@ -18,7 +19,6 @@
 #endif
 
 namespace dw {
-namespace tin {
 namespace detail {
 
 /// Number of slices for a block of `bytes`: about 2 MiB each, at most `tasks_max`. Small enough that
@@ -77,5 +77,4 @@ inline void releaseSlice(void* p, std::size_t bytes, std::size_t k, std::size_t 
 }
 
 }  // namespace detail
-}  // namespace tin
 }  // namespace dw
