@@ -127,6 +127,28 @@ TEST(Predicates3D, NearlyDegenerateInputNeedsTheExactPath) {
   EXPECT_GT(zero_sphere, 100);
 }
 
+TEST(Predicates3D, NearlyCosphericalLargeCoordinates) {
+  // Five points on one sphere of radius ~2^19 about the origin (permutations and sign flips of one
+  // (p, q, r)), the fifth nudged by -1, 0 or +1 along an axis: the products are far beyond 2^53, so the
+  // rounded insphere is unreliable here and every filter (semi-static, then stage A) must hand over.
+  std::mt19937_64 rng(13);
+  std::uniform_int_distribution<std::int64_t> u(1 << 17, (1 << 19) - 1);
+  int zeros = 0, nonzeros = 0;
+  for (int it = 0; it < 20000; ++it) {
+    const double p = double(u(rng)), q = double(u(rng)), r = double(u(rng));
+    const P a{p, q, r}, b{q, r, p}, c{r, p, q}, d{-p, q, r};
+    const int which = it % 4;
+    P e = which == 0 ? P{p, -q, r} : which == 1 ? P{-q, -r, p} : which == 2 ? P{r, -p, -q} : P{q, r, -p};
+    e[it % 3] += static_cast<int>((it / 3) % 3) - 1;
+    if (orientRef(a, b, c, d) == 0) continue;
+    const int ref = insphereRef(a, b, c, d, e);
+    ASSERT_EQ(signOf(insphere(a.data(), b.data(), c.data(), d.data(), e.data())), ref) << "iteration " << it;
+    (ref == 0 ? zeros : nonzeros) += 1;
+  }
+  EXPECT_GT(zeros, 1000);
+  EXPECT_GT(nonzeros, 1000);
+}
+
 TEST(Predicates3D, Orient3dFacesEqualsFourOrient3d) {
   // The walk's shared-difference form: out[f] must have the sign of orient3d with p in slot f, on
   // random, nearly coplanar (p on or next to a face's plane) and exactly degenerate input.

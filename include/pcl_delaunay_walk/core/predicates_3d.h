@@ -31,13 +31,16 @@ constexpr double kIspBoundA = (16.0 + 224.0 * kEps) * kEps;
 constexpr double kO2dBoundA = (3.0 + 16.0 * kEps) * kEps;
 
 // Semi-static filters: before the permanent is formed, the same stage-A bound is tried with the
-// permanent replaced by its upper bound from M, the largest |coordinate difference| (orient3d: at
-// most 6 M^3, insphere: 72 M^5, from the numbers of products; the factors add room for rounding in
-// forming M^k). Cheaper (no permanent), valid whenever M^k neither overflows (then the bound is inf)
-// nor underflows (checked: below kStaticMin the permanent is formed as before).
+// permanent replaced by an upper bound from M, the largest |coordinate difference| (orient3d: at most
+// 6 M^3, insphere: 72 M^5, from the numbers of products; the factors add room for rounding). insphere
+// uses L, the largest lift (|difference|^2, already computed; M^2 <= L) and compares squares:
+// det^2 > C^2 L^5. Cheaper than the permanent; valid whenever the powers neither overflow (the bound
+// is then inf and the test fails) nor underflow (guarded: below kStaticMin the permanent is formed).
 constexpr double kO3dStatic = kO3dBoundA * 6.0 * (1.0 + 16.0 * kEps);
-constexpr double kIspStatic = kIspBoundA * 72.0 * (1.0 + 32.0 * kEps);
+constexpr double kIspStaticSq =
+    (kIspBoundA * 72.0 * (1.0 + 64.0 * kEps)) * (kIspBoundA * 72.0 * (1.0 + 64.0 * kEps));
 constexpr double kStaticMin = 1e-250;
+constexpr double kStaticMinSq = 1e-280;
 /// max for the filters (maxsd; std::fmax's NaN rules cost a call or a blend).
 inline double maxOf(double a, double b) {
   return a > b ? a : b;
@@ -137,12 +140,10 @@ inline double insphere(const double* a, const double* b, const double* c, const 
   const double dlift = dex * dex + dey * dey + dez * dez;
   const double det = (dlift * abc - clift * dab) + (blift * cda - alift * bcd);
   {
-    const double m =
-        detail::maxOf(detail::maxOf(detail::maxAbs(aex, bex, cex, dex), detail::maxAbs(aey, bey, cey, dey)),
-                      detail::maxAbs(aez, bez, cez, dez));
-    const double m2 = m * m, m5 = m2 * m2 * m;
-    const double sbound = detail::kIspStatic * m5;
-    if (m5 > detail::kStaticMin && (det > sbound || -det > sbound)) return det;
+    // M^2 <= the largest lift (a sum of three squares), so det^2 > C^2 L^5 implies |det| > C M^5.
+    const double l = detail::maxOf(detail::maxOf(alift, blift), detail::maxOf(clift, dlift));
+    const double l2 = l * l, l5 = l2 * l2 * l;
+    if (l5 > detail::kStaticMinSq && det * det > detail::kIspStaticSq * l5) return det;
   }
 
   const double aezp = std::fabs(aez), bezp = std::fabs(bez), cezp = std::fabs(cez), dezp = std::fabs(dez);
