@@ -231,6 +231,9 @@ class DelaunayKernel3D {
   static constexpr std::uint32_t kNoLocal = 0xFFFFFFFFu;
   static constexpr std::size_t kDirectLinkMax = 64;
   std::vector<std::uint32_t> local_;
+  // Per vertex: the last tetrahedron made with it (a hint, possibly stale; parallel walks restart
+  // from it, insertCore).
+  std::vector<index_t> vertex_tet_;
   bool track_births_ = false;
 
   Worker seq_;  // the calling thread's scratch (insert(), build(), the sequential rest of a batch)
