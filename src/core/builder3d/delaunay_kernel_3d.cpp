@@ -51,8 +51,7 @@ void DelaunayKernel3D::setPoints(const Vec3f* points, std::size_t n) {
   if (n > 0 && points == nullptr) throw Error("dw::DelaunayKernel3D: null point array");
   points_ = points;
   num_points_ = n;
-  if (local_.size() < n) local_.resize(n, kNoLocal);
-  if (vertex_tet_.size() < n) vertex_tet_.resize(n, kNoTet);
+  if (vertex_tet_.size() < n) vertex_tet_.resize(n, kNoVertexTet);
 }
 
 index_t DelaunayKernel3D::newTet() {
@@ -486,7 +485,8 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
       const index_t u = (k & 1) ? v + (k + 1) / 2 : v - (k + 1) / 2;  // v+1, v-1, v+2, ...
       if (u >= num_points_) continue;                                 // also catches v - j wrapping below 0
       const index_t s = load<true>(vertex_tet_[u]);
-      if (s == kNoTet || !ownsTet(s, own)) continue;
+      // none yet, being renumbered (tagged), or not this thread's
+      if (s >= kNoVertexTet || s >= tet_v_.size() / 4 || !ownsTet(s, own)) continue;
       const index_t* sv = &tet_v_[4 * std::size_t(s)];
       if (load<true>(sv[0]) != u && load<true>(sv[1]) != u && load<true>(sv[2]) != u &&
           load<true>(sv[3]) != u)
@@ -621,23 +621,30 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
   const auto& boundary = w.boundary;
   const auto& made = w.made;
   auto& verts = w.boundary_vertices;
-  auto& corner = w.corner_local;  // per new tetrahedron, the local numbers of its four vertices
+  auto& corner = w.corner_local;            // per new tetrahedron, the local numbers of its four vertices
+  auto& vert_tet = w.boundary_vertex_tets;  // per boundary vertex, a new tetrahedron holding it
   verts.resize(3 * boundary.size());
+  vert_tet.resize(3 * boundary.size());
   corner.resize(4 * boundary.size());
-  w.infinite_local = kNoLocal;
-  auto localOf = [&](index_t x) -> std::uint32_t& { return x == kInfinite ? w.infinite_local : local_[x]; };
+  // The local numbers live, tagged, in the vertices' vertex_tet_ entries (tetrahedron ids stay below
+  // 2^30, so a tagged entry is never a tetrahedron): no array of its own. Boundary vertices are this
+  // thread's own in a parallel pass; other threads may read a tagged entry and skip it (insertCore).
+  // The infinite vertex is everybody's: its number is the worker's.
+  w.infinite_local = 0;
+  auto slotOf = [&](index_t x) -> index_t& { return x == kInfinite ? w.infinite_local : vertex_tet_[x]; };
   // Branch-free numbering (whether a vertex is new is a coin flip to the branch predictor).
   std::uint32_t nv = 0;
   for (std::size_t k = 0; k < boundary.size(); ++k) {
     const BoundaryFace& bf = boundary[k];
     for (unsigned i = 0; i < 3; ++i) {
       const unsigned j = kOtherThree[bf.face][i];
-      std::uint32_t& l = localOf(bf.v[j]);
-      const std::uint32_t old = l;
-      const bool fresh = old == kNoLocal;
+      index_t& slot = slotOf(bf.v[j]);
+      const index_t cur = load<true>(slot);
+      const bool fresh = (cur & kLocalTag) == 0;
       verts[nv] = bf.v[j];
-      l = fresh ? nv : old;
-      corner[4 * k + j] = l;
+      vert_tet[nv] = made[k];
+      store<true>(slot, fresh ? (kLocalTag | nv) : cur);
+      corner[4 * k + j] = fresh ? nv : (cur & ~kLocalTag);
       nv += fresh;
     }
   }
@@ -697,7 +704,10 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
       }
     }
   }
-  for (index_t x : verts) localOf(x) = kNoLocal;
+  // Every vertex of a destroyed tetrahedron is on the boundary, so giving each boundary vertex one of
+  // the new tetrahedra (which also clears its tag) keeps vertex_tet_ exact (vertex removal aside).
+  for (std::uint32_t i = 0; i < nv; ++i)
+    if (verts[i] != kInfinite) store<true>(vertex_tet_[verts[i]], vert_tet[i]);
 }
 
 void DelaunayKernel3D::insertParallel(const index_t* ids, std::size_t m, unsigned num_threads) {
@@ -705,8 +715,8 @@ void DelaunayKernel3D::insertParallel(const index_t* ids, std::size_t m, unsigne
   if (track_births_) throw Error("dw::DelaunayKernel3D::insertParallel: not with trackBirths(true)");
   for (std::size_t i = 0; i < m; ++i)
     if (ids[i] >= num_points_) throw Error("dw::DelaunayKernel3D::insertParallel: vertex id out of range");
-  std::vector<index_t> batch(ids, ids + m);
-  std::sort(batch.begin(), batch.end());
+  std::vector<index_t> pending(ids, ids + m);
+  std::sort(pending.begin(), pending.end());
   // Below a few thousand points per thread the cells are thin next to the cavities and most attempts
   // would be deferred: small batches use fewer threads. When a pass stalls (under a quarter of its
   // points went in), the rest goes in on this thread: what is left then is held up by cavities that
@@ -714,7 +724,6 @@ void DelaunayKernel3D::insertParallel(const index_t* ids, std::size_t m, unsigne
   // at four times the sequential cost per point).
   constexpr std::size_t kMinPerThread = 2048;
   constexpr unsigned kMaxPasses = 12;
-  std::vector<index_t> pending = batch;
   unsigned threads = static_cast<unsigned>(std::min<std::size_t>(num_threads, m / kMinPerThread));
   for (unsigned pass = 0; pass < kMaxPasses && threads > 1; ++pass) {
     if (pending.size() < threads * kMinPerThread / 4)
@@ -1122,9 +1131,8 @@ void DelaunayKernel3D::validate() const {
 }
 
 std::size_t DelaunayKernel3D::memoryBytes() const {
-  return (tet_v_.capacity() + tet_n_.capacity() + birth_.capacity() + local_.capacity() +
-          vertex_tet_.capacity() + seq_.link_direct.capacity() + seq_.made.capacity() +
-          seq_.boundary_vertices.capacity()) *
+  return (tet_v_.capacity() + tet_n_.capacity() + birth_.capacity() + vertex_tet_.capacity() +
+          seq_.link_direct.capacity() + seq_.made.capacity() + seq_.boundary_vertices.capacity()) *
              sizeof(std::uint32_t) +
          mark_.capacity() + free_.capacity() * sizeof(index_t) + seq_.link.capacity() * sizeof(LinkEntry) +
          (seq_.cavity.capacity() + seq_.outside.capacity()) * 4 +

@@ -162,12 +162,13 @@ class DelaunayKernel3D {
   struct alignas(128) Worker {
     std::vector<index_t> cavity, outside;
     std::vector<BoundaryFace> boundary;
-    std::vector<index_t> made;                // the new tetrahedra, one per boundary face
-    std::vector<index_t> boundary_vertices;   // their local numbering (linkNewTetrahedra)
-    std::vector<std::uint32_t> corner_local;  // local numbers of each new tetrahedron's vertices
-    std::uint32_t infinite_local = 0;         // the infinite vertex's local number (shared vertex)
-    std::vector<std::uint32_t> link_direct;   // V x V directed-edge table
-    std::vector<LinkEntry> link;              // hash for boundaries of more than kDirectLinkMax vertices
+    std::vector<index_t> made;                  // the new tetrahedra, one per boundary face
+    std::vector<index_t> boundary_vertices;     // their local numbering (linkNewTetrahedra)
+    std::vector<std::uint32_t> corner_local;    // local numbers of each new tetrahedron's vertices
+    index_t infinite_local = 0;                 // the infinite vertex's tagged local number (shared vertex)
+    std::vector<index_t> boundary_vertex_tets;  // per boundary vertex, a new tetrahedron holding it
+    std::vector<std::uint32_t> link_direct;     // V x V directed-edge table
+    std::vector<LinkEntry> link;                // hash for boundaries of more than kDirectLinkMax vertices
     std::uint32_t generation = 0;
     std::vector<index_t> free;  // parallel pass: slots this thread took from the pool or recycled
     index_t last_tet = 0;
@@ -226,13 +227,13 @@ class DelaunayKernel3D {
   std::vector<Mark> mark_;
   std::vector<index_t> free_;         // recycled tetrahedra
   std::vector<std::uint32_t> birth_;  // per tetrahedron, with track_births_
-  // Per vertex: its number among the current cavity boundary's vertices, else kNoLocal (4 bytes per
-  // point; in a parallel pass each thread touches only vertices it owns).
-  static constexpr std::uint32_t kNoLocal = 0xFFFFFFFFu;
   static constexpr std::size_t kDirectLinkMax = 64;
-  std::vector<std::uint32_t> local_;
-  // Per vertex: the last tetrahedron made with it (a hint, possibly stale; parallel walks restart
-  // from it, insertCore).
+  // Per vertex: a tetrahedron holding it, kept exact by every insertion (vertex removal may leave it
+  // stale, so users check; kNoVertexTet before insertion); parallel walks restart from it (insertCore).
+  // While an insertion links its new tetrahedra, its boundary vertices hold their local numbers here
+  // instead, tagged with kLocalTag (linkNewTetrahedra).
+  static constexpr index_t kLocalTag = 0x80000000u;
+  static constexpr index_t kNoVertexTet = 0x7FFFFFFFu;  // untagged, above every tetrahedron id
   std::vector<index_t> vertex_tet_;
   bool track_births_ = false;
 
