@@ -28,13 +28,13 @@ inline std::size_t hashKey(std::uint64_t k, unsigned bits) {
   return static_cast<std::size_t>((k * 0x9E3779B97F4A7C15ull) >> (64 - bits));
 }
 
+// The three positions other than f.
+constexpr unsigned kOtherThree[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+
 // kForwardEdge[j][f] = {x, y}: face j (opposite vertex j) of a positively oriented tetrahedron, read
 // outward, is the cycle (f, x, y) for any f != j. Outward cycles: face 0 (1, 3, 2), face 1 (0, 2, 3),
 // face 2 (0, 3, 1), face 3 (0, 1, 2) (an even permutation puts the opposite vertex last; orient3d > 0
 // means the first three turn counter-clockwise seen from outside).
-// The three positions other than f.
-constexpr unsigned kOtherThree[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
-
 constexpr unsigned kForwardEdge[4][4][2] = {
     {{0, 0}, {3, 2}, {1, 3}, {2, 1}},
     {{2, 3}, {0, 0}, {3, 0}, {0, 2}},
@@ -479,8 +479,8 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
     t = walkTo(p, w.last_tet, w, own, kSharedWalkGuard);
     // The last insertion may lie across the cell (late passes hold scattered points), and a walk from
     // there often has to leave what this thread owns (measured: most deferrals at 16 threads). Ids
-    // follow a space-filling curve, so a vertex with a nearby id is usually near v: walk again from
-    // the tetrahedron recorded for it, if that is still its and owned.
+    // follow a space-filling curve, so a vertex with a nearby id is usually near v: walk again from a
+    // tetrahedron holding it (vertex_tet_), if this thread owns it.
     for (index_t k = 1; t == kNoTet && k <= kRestartCandidates; ++k) {
       const index_t u = (k & 1) ? v + (k + 1) / 2 : v - (k + 1) / 2;  // v+1, v-1, v+2, ...
       if (u >= num_points_) continue;                                 // also catches v - j wrapping below 0
@@ -490,7 +490,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
       const index_t* sv = &tet_v_[4 * std::size_t(s)];
       if (load<true>(sv[0]) != u && load<true>(sv[1]) != u && load<true>(sv[2]) != u &&
           load<true>(sv[3]) != u)
-        continue;  // the record is stale: that tetrahedron was replaced since
+        continue;  // left stale by a vertex removal
       t = walkTo(p, s, w, own, kSharedWalkGuard);
     }
     if (t == kNoTet || !ownsTet(t, own)) return false;
@@ -762,8 +762,8 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
     tet_n_.reserve(4 * cap);
     mark_.reserve(cap);
   }
-  // The fresh range is mostly untouched memory: take its page faults on all threads first (measured
-  // 0.12 s of first-touch faults in the resizes below at 1M points, on one thread otherwise).
+  // The fresh range is mostly untouched memory: take its page faults on all threads first (the
+  // resizes below, which touch it, took 0.12 s per 1M-point build on one thread before).
   {
     struct Block {
       void* p;

@@ -51,15 +51,15 @@ class DelaunayKernel3D {
   void insert(index_t v);
 
   /// Inserts the vertices ids[0..m) (distinct, not yet present) on `num_threads` threads by
-  /// partitioned insertion: each pass splits the batch into id ranges, one per thread; a thread owns
-  /// the tetrahedra whose four vertices are in its range and inserts a point only when the walk and
-  /// the whole cavity (plus the faces around it) stay inside what it owns, otherwise it defers the
-  /// point. The next pass moves the range boundaries by half a range, so the deferred points, which
-  /// sit near the old boundaries, land inside the new ones. What is left after a few passes, and
-  /// every point in batches too small to share, is inserted on the calling thread. The perturbed
-  /// Delaunay triangulation is unique, so the result does not depend on the thread count. Ranges are
-  /// compact in space when ids follow a space-filling curve (buildDelaunayGraph hands points over in
-  /// Morton order); otherwise the result is the same, only slower. Not with trackBirths(true).
+  /// partitioned insertion: each pass splits the pending points into k-d cells of space, one per
+  /// thread; a thread owns the tetrahedra whose four vertices lie in its cell and inserts a point only
+  /// when the walk and the whole cavity (plus the faces around it) stay inside what it owns, otherwise
+  /// it defers the point. The next pass cuts along other axes and beside the sheets of deferred
+  /// points, so they land inside the new cells. What is left when a pass stalls, and every point in
+  /// batches too small to share, is inserted on the calling thread. The perturbed Delaunay
+  /// triangulation is unique, so the result does not depend on the thread count. Walks are short when
+  /// ids follow a space-filling curve (buildDelaunayGraph hands points over in Morton order);
+  /// otherwise the result is the same, only slower. Not with trackBirths(true).
   void insertParallel(const index_t* ids, std::size_t m, unsigned num_threads);
 
   /// Whether build() has produced a tetrahedralisation.
