@@ -14,11 +14,11 @@
 #include <cstdlib>
 #include <cstring>
 #include <random>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "app_args.h"
 #include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
 #include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
 #include "pcl_delaunay_walk/core/point_file.h"
@@ -37,15 +37,6 @@ void usage() {
       "  --validate: check the whole triangulation (slow) after each build.\n"
       "  --independent: also the ceiling of any partitioned scheme: T threads each triangulate their\n"
       "  own 1/T of the points (Morton ranges) in separate kernels, nothing shared (not a graph).\n");
-}
-
-std::size_t parseCount(const std::string& s) {
-  char* end = nullptr;
-  double v = std::strtod(s.c_str(), &end);
-  if (end && *end == 'k') v *= 1e3;
-  if (end && *end == 'M') v *= 1e6;
-  if (!(v >= 5)) throw dw::Error("dw_delaunay3d_scaling: bad point count '" + s + "'");
-  return static_cast<std::size_t>(v);
 }
 
 double seconds(std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
@@ -130,16 +121,14 @@ int main(int argc, char** argv) {
         return argv[++i];
       };
       if (a == "-n") {
-        n = parseCount(next());
+        n = static_cast<std::size_t>(dw_apps::parseCount(next(), "point count"));
+        if (n < 5) throw dw::Error("dw_delaunay3d_scaling: at least 5 points");
       } else if (a == "--file") {
         file = next();
       } else if (a == "--threads") {
-        threads.clear();
-        std::stringstream ss(next());
-        for (std::string t; std::getline(ss, t, ',');)
-          threads.push_back(static_cast<unsigned>(std::stoul(t)));
+        threads = dw_apps::parseList(next(), "thread count", 1, 4096);
       } else if (a == "--repeats") {
-        repeats = std::max(1, std::atoi(next().c_str()));
+        repeats = static_cast<int>(dw_apps::parseCount(next(), "repeat count"));
       } else if (a == "--validate") {
         validate = true;
       } else if (a == "--independent") {

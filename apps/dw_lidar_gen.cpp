@@ -7,6 +7,7 @@
 #include <cstring>
 #include <string>
 
+#include "app_args.h"
 #include "pcl_delaunay_walk/core/las/synthetic_lidar.h"
 
 namespace {
@@ -16,18 +17,6 @@ void usage() {
                "usage: dw_lidar_gen -n POINTS -o out.las [--density PULSES_PER_M2] [--swath M] [--seed S]\n"
                "  Writes a synthetic airborne LiDAR tile (LAS 1.2 format 1; LAS 1.4 format 6 beyond 2^32).\n"
                "  POINTS accepts suffixes k and M (e.g. 21M).\n");
-}
-
-std::uint64_t parseCount(const char* s) {
-  char* end = nullptr;
-  const double v = std::strtod(s, &end);
-  double mul = 1;
-  if (end && (*end == 'k' || *end == 'K'))
-    mul = 1e3, ++end;
-  else if (end && (*end == 'm' || *end == 'M'))
-    mul = 1e6, ++end;
-  if (!end || *end != '\0' || !(v > 0)) throw dw::Error(std::string("bad point count '") + s + "'");
-  return static_cast<std::uint64_t>(v * mul);
 }
 
 }  // namespace
@@ -43,7 +32,7 @@ int main(int argc, char** argv) {
         return argv[++i];
       };
       if (a == "-n" || a == "--points")
-        o.num_points = parseCount(value());
+        o.num_points = dw_apps::parseCount(value(), "point count");
       else if (a == "-o" || a == "--output")
         out = value();
       else if (a == "--density")

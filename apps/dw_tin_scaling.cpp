@@ -14,11 +14,11 @@
 #include <cstring>
 #include <ctime>
 #include <fstream>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "app_args.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/las/synthetic_lidar.h"
 #include "pcl_delaunay_walk/core/process_memory.h"
@@ -35,34 +35,6 @@ void usage() {
       "  POINTS accepts suffixes k and M. Every thread count runs with every strip count (0, the default:\n"
       "  automatic). Speed-ups are against the first run.\n"
       "  Times are the minimum over the repeats; CPU is process CPU time (all threads).\n");
-}
-
-std::uint64_t parseCount(const std::string& s) {
-  char* end = nullptr;
-  const double v = std::strtod(s.c_str(), &end);
-  double mul = 1;
-  if (end && (*end == 'k' || *end == 'K'))
-    mul = 1e3, ++end;
-  else if (end && (*end == 'm' || *end == 'M'))
-    mul = 1e6, ++end;
-  if (!end || *end != '\0' || !(v > 0)) throw dw::Error("bad count '" + s + "'");
-  return static_cast<std::uint64_t>(v * mul);
-}
-
-/// Comma-separated non-negative integers (0: automatic), each at most `max`.
-std::vector<unsigned> parseList(const std::string& s, const char* what, unsigned max) {
-  std::vector<unsigned> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    char* end = nullptr;
-    const long v = std::strtol(item.c_str(), &end, 10);
-    if (item.empty() || !end || *end || v < 0 || v > long(max))
-      throw dw::Error(std::string("bad ") + what + " '" + item + "'");
-    out.push_back(unsigned(v));
-  }
-  if (out.empty()) throw dw::Error(std::string("empty list of ") + what);
-  return out;
 }
 
 double processCpuSeconds() {
@@ -115,15 +87,15 @@ int main(int argc, char** argv) {
         return argv[++i];
       };
       if (a == "-n")
-        n_gen = parseCount(value());
+        n_gen = dw_apps::parseCount(value(), "point count");
       else if (a == "--las")
         las_path = value();
       else if (a == "--threads")
-        threads = parseList(value(), "thread count", 4096);
+        threads = dw_apps::parseList(value(), "thread count", 0, 4096);
       else if (a == "--strips")
-        strips = parseList(value(), "strip count", 1u << 20);
+        strips = dw_apps::parseList(value(), "strip count", 0, 1u << 20);
       else if (a == "--repeats")
-        repeats = std::max(1u, unsigned(parseCount(value())));
+        repeats = unsigned(dw_apps::parseCount(value(), "repeat count"));
       else if (a == "--certify")
         certify = true;
       else if (a == "-h" || a == "--help") {

@@ -84,17 +84,17 @@ void runEachInOrder(std::size_t count, F&& fn) {
   if (error) std::rethrow_exception(error);
 }
 
-/// Calls fn(i) for every i < count on up to `threads` threads (0: hardware concurrency), each thread
-/// taking the next unclaimed index when it finishes one, so uneven tasks balance. Rethrows the first
-/// exception thrown (the remaining tasks still run) after all threads have finished.
-template <typename F>
-void parallelForDynamic(std::size_t count, unsigned threads, F&& fn) {
-  const unsigned workers = static_cast<unsigned>(std::min<std::size_t>(resolveThreads(threads), count));
-  if (workers <= 1) return runEachInOrder(count, fn);
-  std::exception_ptr error;
+namespace detail {
+/// The shared part of a dynamic loop: every worker calls drain(), which claims indices from one
+/// counter until `count` and keeps the first exception (the remaining tasks still run); rethrow()
+/// once all workers are done. Used by parallelForDynamic and by thread teams that keep their threads.
+struct TaskClaims {
   std::atomic<std::size_t> next{0};
   std::mutex error_mutex;
-  auto body = [&]() {
+  std::exception_ptr error;
+
+  template <typename F>
+  void drain(std::size_t count, F& fn) {
     for (std::size_t i = next++; i < count; i = next++) {
       try {
         fn(i);
@@ -103,7 +103,22 @@ void parallelForDynamic(std::size_t count, unsigned threads, F&& fn) {
         if (!error) error = std::current_exception();
       }
     }
-  };
+  }
+  void rethrow() {
+    if (error) std::rethrow_exception(error);
+  }
+};
+}  // namespace detail
+
+/// Calls fn(i) for every i < count on up to `threads` threads (0: hardware concurrency), each thread
+/// taking the next unclaimed index when it finishes one, so uneven tasks balance. Rethrows the first
+/// exception thrown (the remaining tasks still run) after all threads have finished.
+template <typename F>
+void parallelForDynamic(std::size_t count, unsigned threads, F&& fn) {
+  const unsigned workers = static_cast<unsigned>(std::min<std::size_t>(resolveThreads(threads), count));
+  if (workers <= 1) return runEachInOrder(count, fn);
+  detail::TaskClaims claims;
+  auto body = [&]() { claims.drain(count, fn); };
   std::vector<std::thread> pool;
   pool.reserve(workers - 1);
   for (unsigned w = 1; w < workers; ++w) {
@@ -115,7 +130,7 @@ void parallelForDynamic(std::size_t count, unsigned threads, F&& fn) {
   }
   body();
   for (auto& t : pool) t.join();
-  if (error) std::rethrow_exception(error);
+  claims.rethrow();
 }
 
 }  // namespace dw

@@ -649,27 +649,26 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
     }
   }
   verts.resize(nv);
+  // fn(k, j, x, y): face j of new tetrahedron k passes through v and the boundary edge from its
+  // position x to its position y, read outward.
+  auto forEachFaceThroughV = [&](auto&& fn) {
+    for (std::size_t k = 0; k < boundary.size(); ++k) {
+      const unsigned f = boundary[k].face;
+      for (unsigned i = 0; i < 3; ++i) {
+        const unsigned j = kOtherThree[f][i];
+        fn(k, j, kForwardEdge[j][f][0], kForwardEdge[j][f][1]);
+      }
+    }
+  };
   if (nv <= kDirectLinkMax) {
     auto& table = w.link_direct;
     if (table.size() < std::size_t(nv) * nv) table.resize(kDirectLinkMax * kDirectLinkMax);
-    for (std::size_t k = 0; k < boundary.size(); ++k) {
-      const unsigned f = boundary[k].face;
-      const std::uint32_t* c = &corner[4 * k];
-      for (unsigned i = 0; i < 3; ++i) {
-        const unsigned j = kOtherThree[f][i];
-        const unsigned* xy = kForwardEdge[j][f];
-        table[c[xy[0]] * nv + c[xy[1]]] = 4 * made[k] + j;
-      }
-    }
-    for (std::size_t k = 0; k < boundary.size(); ++k) {
-      const unsigned f = boundary[k].face;
-      const std::uint32_t* c = &corner[4 * k];
-      for (unsigned i = 0; i < 3; ++i) {
-        const unsigned j = kOtherThree[f][i];
-        const unsigned* xy = kForwardEdge[j][f];
-        store<true>(tet_n_[4 * std::size_t(made[k]) + j], table[c[xy[1]] * nv + c[xy[0]]]);
-      }
-    }
+    forEachFaceThroughV([&](std::size_t k, unsigned j, unsigned x, unsigned y) {
+      table[corner[4 * k + x] * nv + corner[4 * k + y]] = 4 * made[k] + j;
+    });
+    forEachFaceThroughV([&](std::size_t k, unsigned j, unsigned x, unsigned y) {
+      store<true>(tet_n_[4 * std::size_t(made[k]) + j], table[corner[4 * k + y] * nv + corner[4 * k + x]]);
+    });
   } else {
     // Open addressing on the undirected edge, at most a quarter full; generations tell this
     // insertion's entries from earlier ones.
@@ -682,27 +681,22 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
       w.generation = 1;
     }
     const std::size_t mask = (std::size_t(1) << bits) - 1;
-    for (std::size_t k = 0; k < boundary.size(); ++k) {
-      const BoundaryFace& bf = boundary[k];
+    forEachFaceThroughV([&](std::size_t k, unsigned j, unsigned x, unsigned y) {
       const index_t nt = made[k];
-      for (unsigned i = 0; i < 3; ++i) {
-        const unsigned j = kOtherThree[bf.face][i];
-        const unsigned* xy = kForwardEdge[j][bf.face];
-        const std::uint64_t key = edgeKey(bf.v[xy[0]], bf.v[xy[1]]);
-        for (std::size_t s = hashKey(key, bits);; s = (s + 1) & mask) {
-          LinkEntry& e = w.link[s];
-          if (e.generation != w.generation) {
-            e = LinkEntry{key, 4 * nt + j, w.generation};
-            break;
-          }
-          if (e.key == key) {
-            store<true>(tet_n_[4 * std::size_t(nt) + j], e.face);
-            store<true>(tet_n_[e.face], 4 * nt + j);
-            break;
-          }
+      const std::uint64_t key = edgeKey(boundary[k].v[x], boundary[k].v[y]);
+      for (std::size_t s = hashKey(key, bits);; s = (s + 1) & mask) {
+        LinkEntry& e = w.link[s];
+        if (e.generation != w.generation) {
+          e = LinkEntry{key, 4 * nt + j, w.generation};
+          break;
+        }
+        if (e.key == key) {
+          store<true>(tet_n_[4 * std::size_t(nt) + j], e.face);
+          store<true>(tet_n_[e.face], 4 * nt + j);
+          break;
         }
       }
-    }
+    });
   }
   // Every vertex of a destroyed tetrahedron is on the boundary, so giving each boundary vertex one of
   // the new tetrahedra (which also clears its tag) keeps vertex_tet_ exact (vertex removal aside).

@@ -81,20 +81,9 @@ class WorkerTeam {
   void forEach(std::size_t count, F&& fn) {
     if (count == 0) return;
     if (count == 1 || helpers_.empty()) return runEachInOrder(count, fn);
-    std::atomic<std::size_t> next{0};
-    std::mutex error_mutex;
-    std::exception_ptr error;
-    everyWorker([&](unsigned) {
-      for (std::size_t i = next++; i < count; i = next++) {
-        try {
-          fn(i);
-        } catch (...) {
-          std::lock_guard<std::mutex> lock(error_mutex);
-          if (!error) error = std::current_exception();
-        }
-      }
-    });
-    if (error) std::rethrow_exception(error);
+    dw::detail::TaskClaims claims;
+    everyWorker([&](unsigned) { claims.drain(count, fn); });
+    claims.rethrow();
   }
 
  private:
