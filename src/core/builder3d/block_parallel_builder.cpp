@@ -275,9 +275,8 @@ EdgeList blockParallelDelaunayEdges(const std::vector<Vec3f>& points, unsigned n
     k.setPoints(points.data(), n);
     const std::vector<index_t> order = brioOrder(points);
     k.build(order.data(), order.size());
-    auto chunks = k.releaseIntoEdgeChunks(1);
     if (stats) *stats = BlockBuildStats{1, 0, 0, 0};
-    return std::move(chunks[0]);
+    return DelaunayKernel3D::joinChunks(k.releaseIntoEdgeChunks(1));
   }
   const CellGrid grid(points);
   std::vector<Block> blocks;

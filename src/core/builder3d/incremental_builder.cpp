@@ -41,15 +41,7 @@ EdgeList incrementalDelaunayEdges(const std::vector<Vec3f>& points, const BuildO
     }
     chunks = kernel.releaseIntoEdgeChunks(threads);
   }
-  std::size_t total = 0;
-  for (const auto& c : chunks) total += c.size();
-  EdgeList edges;
-  edges.reserve(total);
-  for (auto& c : chunks) {
-    edges.insert(edges.end(), c.begin(), c.end());
-    std::vector<std::pair<index_t, index_t>>().swap(c);
-  }
-  return edges;
+  return builder3d::DelaunayKernel3D::joinChunks(std::move(chunks));
 }
 
 }  // namespace dw

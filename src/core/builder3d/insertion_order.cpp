@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "../page_memory.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/space_filling_curve.h"
 
@@ -119,11 +120,13 @@ std::vector<index_t> brioOrderInRounds(const std::vector<Vec3f>& points, std::ve
       });
       kv.swap(tmp);
     }
+    detail::freeScratch(tmp);
   }
   for (std::size_t k = 0; k < n; ++k) {
     order[k] = kv[k].id;
     if (k == 0 || (kv[k].key >> 59) != (kv[k - 1].key >> 59)) round_begin.push_back(k);
   }
+  detail::freeScratch(kv);
   return order;
 }
 

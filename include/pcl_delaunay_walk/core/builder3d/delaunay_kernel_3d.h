@@ -70,15 +70,19 @@ class DelaunayKernel3D {
 
   using EdgeChunks = std::vector<std::vector<std::pair<index_t, index_t>>>;
 
-  /// Every Delaunay edge between finite vertices, u < v, each once. Split into one chunk per thread
-  /// (`num_threads` >= 1; the chunks are made in parallel) so the caller can concatenate them after
-  /// freeing the kernel.
+  /// Every Delaunay edge between finite vertices, u < v, each once, in chunks by consecutive ranges of
+  /// u (ascending; each chunk sized exactly), made on `num_threads` threads, so the caller can
+  /// concatenate them after freeing the kernel.
   EdgeChunks edgeChunks(unsigned num_threads) const;
 
   /// edgeChunks(), but frees the adjacency first and the tetrahedra last: the peak memory then holds
   /// the vertex quadruples and the edges, not the whole structure plus the edges. Leaves the kernel
   /// empty (built() is false).
   EdgeChunks releaseIntoEdgeChunks(unsigned num_threads);
+
+  /// The chunks' edges in one list, in order; each chunk's pages go back to the system once copied,
+  /// so the resident peak is one copy of the edges plus one chunk.
+  static std::vector<std::pair<index_t, index_t>> joinChunks(EdgeChunks&& chunks);
 
   /// The edges (a, b), a < b, of the triangulation whose smaller endpoint a is in [first, last), each
   /// once: what one block of the parallel builder owns.
