@@ -196,70 +196,71 @@ struct DelaunayKernel3D::Everything {
 };
 
 // The cells of one parallel pass: a k-d split of the pending points, one leaf per thread, each with
-// the same number of points. Nodes are {axis, split, child below, child at or above}; axis -1 marks a
-// leaf, whose `below` is the thread.
+// the same number of points. Nodes are {direction, split, child below, child at or above}; direction
+// -1 marks a leaf, whose `below` is the thread.
+//
+// Every pass after the first cuts along other directions. What a pass defers lies in thin sheets along
+// its cuts; a later pass that cut along the same directions put its medians into those very sheets
+// (measured at 16 threads on 1M points: third passes that inserted 11-17 % of their points, even with
+// the cuts moved to gaps beside the sheets, which only placed them at a sheet's edge). Cut along other
+// directions, an earlier sheet spreads over the whole range of the new coordinate, and only the lines
+// where a new cut crosses it are deferred again (third passes then insert ~74 %). The directions have
+// small integer components, so a float point's coordinate along one (three exact products summed in
+// double in a fixed order) is the same wherever it is computed, with or without fused multiply-adds:
+// every call site agrees on who owns a vertex.
 struct DelaunayKernel3D::CellSplit {
   struct Node {
-    int axis;
-    float split;
+    int direction;
+    double split;
     unsigned below, above;
   };
   std::vector<Node> nodes;
+  const double (*directions)[3] = nullptr;
+
+  // Pass 0 cuts along the axes, later passes along orthogonal triples with one body diagonal each.
+  static constexpr double kDirections[5][3][3] = {
+      {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}},    {{1, 1, 1}, {1, -1, 0}, {1, 1, -2}},
+      {{-1, 1, 1}, {0, 1, -1}, {2, 1, 1}},  {{1, -1, 1}, {1, 0, -1}, {1, 2, 1}},
+      {{1, 1, -1}, {1, 0, 1}, {1, -2, -1}},
+  };
+
+  double coordinate(const Vec3f& p, int direction) const {
+    const double* d = directions[direction];
+    return double(p.x) * d[0] + double(p.y) * d[1] + double(p.z) * d[2];
+  }
 
   unsigned cellOf(const Vec3f& p) const {
     unsigned i = 0;
-    while (nodes[i].axis >= 0) {
-      const float c = nodes[i].axis == 0 ? p.x : nodes[i].axis == 1 ? p.y : p.z;
-      i = c < nodes[i].split ? nodes[i].below : nodes[i].above;
-    }
+    while (nodes[i].direction >= 0)
+      i = coordinate(p, nodes[i].direction) < nodes[i].split ? nodes[i].below : nodes[i].above;
     return nodes[i].below;
   }
 
-  // Splits ids[0..m) among threads [first, first + count) at depth `depth`; the axis order starts at
-  // `axis0`, so consecutive passes cut along different planes and the points deferred next to one
-  // pass's cuts lie inside the next pass's cells.
-  // With `avoid_sheets` (every pass after the first) the points are what earlier passes deferred:
-  // they crowd in thin sheets along the earlier cuts, and a cut at their median lands in such a sheet
-  // as soon as an earlier pass cut the same axis there (measured at 16 threads: passes that inserted
-  // 2-5 % of their points). The cut is then moved, within an eighth of the points either side of
-  // the median, to the widest gap between consecutive coordinates, discounted by its distance from
-  // the median: inside a sheet gaps are tiny, so the cut leaves the sheet, and it stays near the
-  // median where there is none.
-  unsigned build(const Vec3f* points, index_t* ids, std::size_t m, unsigned first, unsigned count,
-                 unsigned depth, unsigned axis0, bool avoid_sheets) {
+  // The cells of pass `pass`: ids[0..m) split among `count` threads.
+  void build(const Vec3f* points, index_t* ids, std::size_t m, unsigned count, unsigned pass) {
+    nodes.clear();
+    directions = kDirections[pass == 0 ? 0 : 1 + (pass - 1) % 4];
+    split(points, ids, m, 0, count, 0);
+  }
+
+ private:
+  // Splits ids[0..m) among threads [first, first + count) at depth `depth` (the directions in turn).
+  unsigned split(const Vec3f* points, index_t* ids, std::size_t m, unsigned first, unsigned count,
+                 unsigned depth) {
     const unsigned me = static_cast<unsigned>(nodes.size());
-    nodes.push_back({-1, 0.0f, first, first});
+    nodes.push_back({-1, 0.0, first, first});
     if (count <= 1 || m < 2) return me;
-    const int axis = static_cast<int>((axis0 + depth) % 3);
-    auto coord = [&](index_t v) { return axis == 0 ? points[v].x : axis == 1 ? points[v].y : points[v].z; };
-    auto less = [&](index_t a, index_t b) { return coord(a) < coord(b); };
+    const int direction = static_cast<int>(depth % 3);
+    auto coord = [&](index_t v) { return coordinate(points[v], direction); };
     const unsigned left = count / 2;
     std::size_t k = m * left / count;
-    std::nth_element(ids, ids + k, ids + m, less);
-    float split = coord(ids[k]);
-    const std::size_t window = m / 8;
-    if (avoid_sheets && window >= 4) {
-      const std::size_t lo = k - std::min(k, window), hi = std::min(m, k + window);
-      std::nth_element(ids, ids + lo, ids + k, less);
-      std::nth_element(ids + k, ids + hi - 1, ids + m, less);
-      std::sort(ids + lo, ids + hi, less);
-      double best_score = -1.0;
-      for (std::size_t j = lo + 1; j < hi; ++j) {
-        const double gap = double(coord(ids[j])) - coord(ids[j - 1]);
-        const double off = j > k ? double(j - k) : double(k - j);
-        const double score = gap * (1.0 - off / double(window + 1));
-        if (score > best_score) {
-          best_score = score;
-          split = coord(ids[j]);  // the upper end of the gap: everything below it goes below
-        }
-      }
-    }
+    std::nth_element(ids, ids + k, ids + m, [&](index_t a, index_t b) { return coord(a) < coord(b); });
+    const double at = coord(ids[k]);
     // Points equal to the split value go above; keep the counts as even as the ties allow.
-    k = std::partition(ids, ids + m, [&](index_t v) { return coord(v) < split; }) - ids;
-    const unsigned below = build(points, ids, k, first, left, depth + 1, axis0, avoid_sheets);
-    const unsigned above =
-        build(points, ids + k, m - k, first + left, count - left, depth + 1, axis0, avoid_sheets);
-    nodes[me] = {axis, split, below, above};
+    k = std::partition(ids, ids + m, [&](index_t v) { return coord(v) < at; }) - ids;
+    const unsigned below = split(points, ids, k, first, left, depth + 1);
+    const unsigned above = split(points, ids + k, m - k, first + left, count - left, depth + 1);
+    nodes[me] = {direction, at, below, above};
     return me;
   }
 };
@@ -736,7 +737,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
   CellSplit split;
   {
     std::vector<index_t> ids(pending);
-    split.build(points_, ids.data(), ids.size(), 0, threads, 0, pass % 3, pass > 0);
+    split.build(points_, ids.data(), ids.size(), threads, pass);
   }
   std::vector<Cell> own(threads);
   std::vector<Worker> workers(threads);

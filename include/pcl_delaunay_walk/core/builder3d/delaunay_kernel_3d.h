@@ -54,8 +54,8 @@ class DelaunayKernel3D {
   /// partitioned insertion: each pass splits the pending points into k-d cells of space, one per
   /// thread; a thread owns the tetrahedra whose four vertices lie in its cell and inserts a point only
   /// when the walk and the whole cavity (plus the faces around it) stay inside what it owns, otherwise
-  /// it defers the point. The next pass cuts along other axes and beside the sheets of deferred
-  /// points, so they land inside the new cells. What is left when a pass stalls, and every point in
+  /// it defers the point. The next pass cuts along other directions (not the axes), so the sheets of
+  /// deferred points along the old cuts lie across the new cells. What is left when a pass stalls, and every point in
   /// batches too small to share, is inserted on the calling thread. The perturbed Delaunay
   /// triangulation is unique, so the result does not depend on the thread count. Walks are short when
   /// ids follow a space-filling curve (buildDelaunayGraph hands points over in Morton order);
