@@ -994,23 +994,25 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const std::vector<in
       }
     });
   };
-  std::vector<std::size_t> count(std::size_t(workers) * num_ranges, 0);
-  forEachListEntry([&](unsigned w, std::size_t r, std::size_t) { ++count[w * num_ranges + r]; });
+  // Per worker, counts and then fill positions per range, each worker's on cache lines of its own.
+  const std::size_t stride = (num_ranges + 15) / 8 * 8;
+  std::vector<std::size_t> count(std::size_t(workers) * stride, 0);
+  forEachListEntry([&](unsigned w, std::size_t r, std::size_t) { ++count[w * stride + r]; });
   std::vector<std::size_t> list_start(num_ranges + 1, 0), offset(count.size());
   {
     std::size_t acc = 0;
     for (std::size_t r = 0; r < num_ranges; ++r) {
       list_start[r] = acc;
       for (unsigned w = 0; w < workers; ++w) {
-        offset[w * num_ranges + r] = acc;
-        acc += count[w * num_ranges + r];
+        offset[w * stride + r] = acc;
+        acc += count[w * stride + r];
       }
     }
     list_start[num_ranges] = acc;
   }
   std::vector<index_t> lists(list_start[num_ranges]);
   forEachListEntry([&](unsigned w, std::size_t r, std::size_t t) {
-    lists[offset[w * num_ranges + r]++] = static_cast<index_t>(t);
+    lists[offset[w * stride + r]++] = static_cast<index_t>(t);
   });
 
   // 3. The edges of each range, into a chunk of its own sized exactly (a growing vector per thread
