@@ -967,10 +967,15 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const std::vector<in
   const std::size_t span = last - first;
   const std::size_t budget = std::max<std::size_t>(std::size_t(1) << 18, 4 * span / num_threads);
   const std::size_t per_vertex = std::max<std::size_t>(1, 6 * nt / std::max<std::size_t>(n, 1));
-  const std::size_t num_ranges =
+  const std::size_t wanted =
       std::min(span, std::max<std::size_t>(num_threads, (span * per_vertex + budget - 1) / budget));
-  const std::size_t range_width = (span + num_ranges - 1) / num_ranges;
-  auto rangeStart = [&](std::size_t r) { return std::min(last, first + r * range_width); };
+  // Widths are powers of two, so a vertex's range is a shift (a 64-bit division per tetrahedron
+  // vertex cost more than the rest of a list pass).
+  unsigned width_bits = 0;
+  while ((std::size_t(1) << width_bits) * wanted < span) ++width_bits;
+  const std::size_t num_ranges = ((span - 1) >> width_bits) + 1;
+  auto rangeOf = [&](index_t v) { return static_cast<std::size_t>((v - first) >> width_bits); };
+  auto rangeStart = [&](std::size_t r) { return std::min(last, first + (r << width_bits)); };
 
   // 2. Per range, the tetrahedra with an edge owned there: counted per worker slice, then filled at
   // offsets that keep each range's list in tetrahedron order.
@@ -978,15 +983,15 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const std::vector<in
     index_t v[4] = {tv[0], tv[1], tv[2], tv[3]};
     const index_t vmin = std::min(std::min(v[0], v[1]), std::min(v[2], v[3]));
     const index_t vmax = std::max(std::max(v[0], v[1]), std::max(v[2], v[3]));
-    if (vmin >= first && vmax < last && (vmin - first) / range_width == (vmax - first) / range_width) {
-      out[0] = (vmin - first) / range_width;  // the common case with Morton ids: one range
+    if (vmin >= first && vmax < last && rangeOf(vmin) == rangeOf(vmax)) {
+      out[0] = rangeOf(vmin);  // the common case with Morton ids: one range
       return 1u;
     }
     std::sort(v, v + 4);
     unsigned k = 0;
     for (unsigned j = 0; j < 3; ++j) {
       if (v[j] < first || v[j] >= last) continue;
-      const std::size_t r = (v[j] - first) / range_width;
+      const std::size_t r = rangeOf(v[j]);
       if (k == 0 || out[k - 1] != r) out[k++] = r;
     }
     return k;
