@@ -22,12 +22,17 @@ Edges edgesOf(const DelaunayKernel3D& k) {
   return b3d_test::kernelEdges(k, 2);
 }
 
+// Batches of these test clouds (15k-40k points) are shared among threads only below the default
+// of 8192 points per thread.
+constexpr std::size_t kTestMinPerThread = 2048;
+
 // BRIO rounds as batches, as incrementalDelaunayEdges builds.
 Edges parallelBuild(const std::vector<dw::Vec3f>& pts, unsigned threads,
                     DelaunayKernel3D::Stats* stats = nullptr) {
   std::vector<std::size_t> rounds;
   const auto order = dw::builder3d::brioOrder(pts, rounds);
   DelaunayKernel3D k;
+  k.setMinPointsPerThread(kTestMinPerThread);
   k.setPoints(pts.data(), pts.size());
   k.build(order.data(), order.size(), {}, rounds, threads);
   k.validate();
@@ -87,6 +92,7 @@ TEST(PartitionedInsertion, BatchIntoBuiltTriangulationEqualsFreshBuild) {
   std::vector<dw::index_t> first, second;
   for (dw::index_t i = 0; i < pts.size(); ++i) (i % 2 ? second : first).push_back(i);
   DelaunayKernel3D k;
+  k.setMinPointsPerThread(kTestMinPerThread);
   k.setPoints(pts.data(), pts.size());
   const auto order = dw::builder3d::brioOrder(pts, first);
   k.build(order.data(), order.size());
