@@ -722,12 +722,12 @@ void DelaunayKernel3D::insertParallel(const index_t* ids, std::size_t m, unsigne
   // quarter of its points went in), the rest goes in on this thread: what is left then is held up by cavities
   // that cross cells whatever the cut (halving the threads instead inserted 1-3 % per pass at 16 threads, at
   // four times the sequential cost per point).
-  const std::size_t kMinPerThread = std::max<std::size_t>(1, min_points_per_thread_);
+  const std::size_t min_per_thread = std::max<std::size_t>(1, min_points_per_thread_);
   constexpr unsigned kMaxPasses = 12;
-  unsigned threads = static_cast<unsigned>(std::min<std::size_t>(num_threads, m / kMinPerThread));
+  unsigned threads = static_cast<unsigned>(std::min<std::size_t>(num_threads, m / min_per_thread));
   for (unsigned pass = 0; pass < kMaxPasses && threads > 1; ++pass) {
-    if (pending.size() < threads * kMinPerThread / 4)
-      threads = static_cast<unsigned>(pending.size() * 4 / kMinPerThread);
+    if (pending.size() < threads * min_per_thread / 4)
+      threads = static_cast<unsigned>(pending.size() * 4 / min_per_thread);
     if (threads < 2) break;
     const std::size_t before = pending.size();
     runParallelPass(pending, threads, pass);
@@ -948,9 +948,9 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const std::vector<in
   //  3. per range, in parallel: count the occurrences per a, bucket the b's by a, drop repeats, and
   //     write the range's chunk.
   // Memory stays near the buffers (about 16 bytes per point) plus the lists (about one id per
-  // tetrahedron) and the edges themselves, instead of all ~40 occurrences per point. Nothing is
-  // shared between threads but the lists (a global count per vertex needed locked adds: ~0.1 s of
-  // the 2-thread extraction at 1M points).
+  // tetrahedron) and the edges themselves, instead of all ~40 occurrences per point. No thread
+  // writes what another writes (a global count per vertex needed locked adds, and one shared list
+  // array written at per-worker offsets ran slower on 2-4 device threads than on one).
   if (num_threads == 0) num_threads = 1;
   EdgeChunks chunks;
   last = std::min(last, n);
@@ -972,8 +972,7 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const std::vector<in
   const std::size_t per_vertex = std::max<std::size_t>(1, 6 * nt / std::max<std::size_t>(n, 1));
   const std::size_t wanted =
       std::min(span, std::max<std::size_t>(num_threads, (span * per_vertex + budget - 1) / budget));
-  // Widths are powers of two, so a vertex's range is a shift (a 64-bit division per tetrahedron
-  // vertex cost more than the rest of a list pass).
+  // Widths are powers of two, so a vertex's range is a shift, not a 64-bit division.
   unsigned width_bits = 0;
   while ((std::size_t(1) << width_bits) * wanted < span) ++width_bits;
   const std::size_t num_ranges = ((span - 1) >> width_bits) + 1;
