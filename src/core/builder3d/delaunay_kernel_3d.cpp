@@ -718,13 +718,15 @@ void DelaunayKernel3D::insertParallel(const index_t* ids, std::size_t m, unsigne
     if (ids[i] >= num_points_) throw Error("dw::DelaunayKernel3D::insertParallel: vertex id out of range");
   std::vector<index_t> pending(ids, ids + m);
   std::sort(pending.begin(), pending.end());
-  // Small batches use fewer threads (min_points_per_thread_, see the header). When a pass stalls (under a
-  // quarter of its points went in), the rest goes in on this thread: what is left then is held up by cavities
-  // that cross cells whatever the cut (halving the threads instead inserted 1-3 % per pass at 16 threads, at
-  // four times the sequential cost per point).
+  // Small batches use fewer threads (min_points_per_thread_, see the header); two threads already
+  // share a batch of half that many points. When a pass stalls (under a quarter of its points went in),
+  // the rest goes in on this thread: what is left then is held up by cavities that cross cells whatever
+  // the cut (halving the threads instead inserted 1-3 % per pass at 16 threads, at four times the
+  // sequential cost per point).
   const std::size_t min_per_thread = std::max<std::size_t>(1, min_points_per_thread_);
   constexpr unsigned kMaxPasses = 12;
-  unsigned threads = static_cast<unsigned>(std::min<std::size_t>(num_threads, m / min_per_thread));
+  const std::size_t by_size = std::max<std::size_t>(m / min_per_thread, m >= min_per_thread / 2 ? 2 : 1);
+  unsigned threads = static_cast<unsigned>(std::min<std::size_t>(num_threads, by_size));
   for (unsigned pass = 0; pass < kMaxPasses && threads > 1; ++pass) {
     if (pending.size() < threads * min_per_thread / 4)
       threads = static_cast<unsigned>(pending.size() * 4 / min_per_thread);
