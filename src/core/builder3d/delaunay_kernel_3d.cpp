@@ -968,9 +968,11 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const std::vector<in
   const unsigned workers = workerCount(nt, num_threads, 1 << 16);
 
   // 1. Ranges: `budget` occurrences each, estimated as 6 per tetrahedron slot spread over all points
-  // (a range holding more only makes its buffer bigger). At least one range per thread.
+  // (a range holding more only makes its buffer bigger). At least one range per thread. Each thread
+  // holds one range's buffer, so the budget shrinks with the thread count (a floor of 2^18 gave the
+  // dragon's 16 threads 38 bytes per point of buffers, and the extraction a peak above the insertion's).
   const std::size_t span = last - first;
-  const std::size_t budget = std::max<std::size_t>(std::size_t(1) << 18, 4 * span / num_threads);
+  const std::size_t budget = std::max<std::size_t>(std::size_t(1) << 16, 4 * span / num_threads);
   const std::size_t per_vertex = std::max<std::size_t>(1, 6 * nt / std::max<std::size_t>(n, 1));
   const std::size_t wanted =
       std::min(span, std::max<std::size_t>(num_threads, (span * per_vertex + budget - 1) / budget));
