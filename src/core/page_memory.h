@@ -77,6 +77,13 @@ inline void releaseSlice(void* p, std::size_t bytes, std::size_t k, std::size_t 
 #endif
 }
 
+/// Gives the whole pages of a vector's unused capacity (beyond its size) back to the system; growing
+/// into them later maps them again.
+template <class T>
+void releaseUnused(std::vector<T>& v) {
+  releaseSlice(v.data() + v.size(), (v.capacity() - v.size()) * sizeof(T), 0, 1);
+}
+
 /// Frees a big scratch vector and makes sure its pages leave the process: glibc raises its mmap
 /// threshold after freeing a big block, so later scratch of tens of MiB comes from the heap and stays
 /// resident after free (measured: the 2-thread insertion order's two 16 MiB sort buffers stayed in

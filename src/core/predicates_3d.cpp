@@ -26,9 +26,9 @@ struct Expansion {
 
 /// Bump allocator over one per-thread buffer; reset at the start of every exact evaluation. The
 /// worst case (insphere with two-component differences everywhere) needs about 170k doubles, a typical
-/// call a few hundred: the buffer is left uninitialised, so only the pages a thread's evaluations
-/// reach become resident (zero-filled, every thread of every parallel pass of the 3D builder that met
-/// one exact test held 2 MiB: 64 MiB, 147 bytes per point, for the dragon on 16 threads).
+/// call a few hundred. The buffer is left uninitialised, so only the pages a thread's evaluations reach
+/// become resident: zero-filled, it made every thread of every 3D-builder pass that met one exact test
+/// hold 2 MiB (64 MiB, 147 bytes per point, for the dragon on 16 threads).
 class Arena {
  public:
   static constexpr std::size_t kSize = std::size_t(1) << 18;

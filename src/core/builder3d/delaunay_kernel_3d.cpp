@@ -28,6 +28,13 @@ inline std::size_t hashKey(std::uint64_t k, unsigned bits) {
   return static_cast<std::size_t>((k * 0x9E3779B97F4A7C15ull) >> (64 - bits));
 }
 
+// Bits of an open-addressing table for at least `entries` slots (64 at the least).
+inline unsigned tableBits(std::size_t entries) {
+  unsigned bits = 6;
+  while ((std::size_t(1) << bits) < entries) ++bits;
+  return bits;
+}
+
 // The three positions other than f.
 constexpr unsigned kOtherThree[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
 
@@ -54,6 +61,18 @@ void DelaunayKernel3D::setPoints(const Vec3f* points, std::size_t n) {
   if (vertex_tet_.size() < n) vertex_tet_.resize(n, kNoVertexTet);
 }
 
+void DelaunayKernel3D::reserveSlots(std::size_t slots) {
+  tet_v_.reserve(4 * slots);
+  tet_n_.reserve(4 * slots);
+  mark_.reserve(slots);
+}
+
+void DelaunayKernel3D::resizeSlots(std::size_t slots) {
+  tet_v_.resize(4 * slots, kDead);
+  tet_n_.resize(4 * slots, 0);
+  mark_.resize(slots, Mark::kUnknown);
+}
+
 index_t DelaunayKernel3D::newTet() {
   if (!free_.empty()) {
     const index_t t = free_.back();
@@ -63,16 +82,9 @@ index_t DelaunayKernel3D::newTet() {
   const std::size_t t = tet_v_.size() / 4;
   if (t >= (std::size_t(1) << 30))
     throw Error("dw::DelaunayKernel3D: more than 2^30 tetrahedra (neighbour codes are 32-bit)");
-  if (tet_v_.size() == tet_v_.capacity()) {
-    // Grow by a quarter rather than doubling: the arrays are most of the peak memory.
-    const std::size_t cap = tet_v_.capacity() + tet_v_.capacity() / 4 + 64;
-    tet_v_.reserve(cap);
-    tet_n_.reserve(cap);
-    mark_.reserve(cap / 4 + 16);
-  }
-  tet_v_.resize(tet_v_.size() + 4);
-  tet_n_.resize(tet_n_.size() + 4);
-  mark_.push_back(Mark::kUnknown);
+  // Grow by a quarter rather than doubling: the arrays are most of the peak memory.
+  if (4 * (t + 1) > tet_v_.capacity()) reserveSlots(t + t / 4 + 16);
+  resizeSlots(t + 1);
   if (track_births_) birth_.push_back(static_cast<std::uint32_t>(num_inserted_));
   return static_cast<index_t>(t);
 }
@@ -147,9 +159,7 @@ void DelaunayKernel3D::build(const index_t* order, std::size_t n, const std::fun
   // points against 216 at 1M; the dragon 336 B/point with 7, 276 with 8). Pages never touched cost
   // address space only.
   const std::size_t expected_tets = n * 8 + 64;
-  tet_v_.reserve(4 * expected_tets);
-  tet_n_.reserve(4 * expected_tets);
-  mark_.reserve(expected_tets);
+  reserveSlots(expected_tets);
   initialTetrahedron(order[0], order[1], order[kc], order[kd]);
   num_inserted_ = 4;
 
@@ -224,10 +234,9 @@ struct DelaunayKernel3D::CellSplit {
       {{1, 1, -1}, {1, 0, 1}, {1, -2, -1}},
   };
 
-  bool axes = true;  // pass 0: a coordinate is the point's own (ownership is tested ~50 times per insertion)
-
   double coordinate(const Vec3f& p, int direction) const {
-    if (axes) return direction == 0 ? p.x : direction == 1 ? p.y : p.z;
+    // Pass 0 reads the point's own coordinate (ownership is tested ~50 times per insertion).
+    if (directions == kDirections[0]) return direction == 0 ? p.x : direction == 1 ? p.y : p.z;
     const double* d = directions[direction];
     return double(p.x) * d[0] + double(p.y) * d[1] + double(p.z) * d[2];
   }
@@ -243,7 +252,6 @@ struct DelaunayKernel3D::CellSplit {
   void build(const Vec3f* points, index_t* ids, std::size_t m, unsigned count, unsigned pass) {
     nodes.clear();
     directions = kDirections[pass == 0 ? 0 : 1 + (pass - 1) % 4];
-    axes = pass == 0;
     split(points, ids, m, 0, count, 0);
   }
 
@@ -680,8 +688,7 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
     // Open addressing on the undirected edge, at most a quarter full; generations tell this
     // insertion's entries from earlier ones.
     const std::size_t edges = boundary.size() * 3 / 2 + 1;
-    unsigned bits = 6;
-    while ((std::size_t(1) << bits) < 4 * edges) ++bits;
+    const unsigned bits = tableBits(4 * edges);
     if (w.link.size() < (std::size_t(1) << bits)) w.link.resize(std::size_t(1) << bits, LinkEntry{});
     if (++w.generation == 0) {
       for (auto& e : w.link) e.generation = 0;
@@ -738,11 +745,9 @@ void DelaunayKernel3D::insertParallel(const index_t* ids, std::size_t m, unsigne
   // The passes' growth estimate is generous: the untaken tail of their last fresh range, prefaulted,
   // held 0.13 slots per point at 2-8 threads. Its pages go back to the system (later growth maps them
   // again); within a batch, the next pass reuses them as they are.
-  detail::releaseSlice(tet_v_.data() + tet_v_.size(), (tet_v_.capacity() - tet_v_.size()) * sizeof(index_t),
-                       0, 1);
-  detail::releaseSlice(tet_n_.data() + tet_n_.size(),
-                       (tet_n_.capacity() - tet_n_.size()) * sizeof(std::uint32_t), 0, 1);
-  detail::releaseSlice(mark_.data() + mark_.size(), (mark_.capacity() - mark_.size()) * sizeof(Mark), 0, 1);
+  detail::releaseUnused(tet_v_);
+  detail::releaseUnused(tet_n_);
+  detail::releaseUnused(mark_);
   std::sort(pending.begin(), pending.end());
   for (index_t v : pending) insert(v);
 }
@@ -772,12 +777,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
   const std::size_t used = tet_v_.size() / 4;
   const std::size_t growth = 7 * pending.size() + 2 * kSlotChunk * threads;
   const std::size_t fresh = (growth > free_.size() ? growth - free_.size() : 0) + kSlotChunk * threads;
-  if (4 * (used + fresh) > tet_v_.capacity()) {
-    const std::size_t cap = used + fresh + (used + fresh) / 8;
-    tet_v_.reserve(4 * cap);
-    tet_n_.reserve(4 * cap);
-    mark_.reserve(cap);
-  }
+  if (4 * (used + fresh) > tet_v_.capacity()) reserveSlots(used + fresh + (used + fresh) / 8);
   // The fresh range is mostly untouched memory: take its page faults on all threads first (the
   // resizes below, which touch it, took 0.12 s per 1M-point build on one thread before).
   {
@@ -800,9 +800,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
       }
     });
   }
-  tet_v_.resize(4 * (used + fresh), kDead);
-  tet_n_.resize(4 * (used + fresh), 0);
-  mark_.resize(used + fresh, Mark::kUnknown);
+  resizeSlots(used + fresh);
   pool_.swap(free_);
   free_.clear();
   std::sort(pool_.begin(), pool_.end());
@@ -875,10 +873,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
   const std::size_t recycled = pool_.size(), total = recycled + (fresh_end_ - fresh_begin_);
   const std::size_t taken = std::min(pool_next_, total);
   for (std::size_t k = taken; k < recycled; ++k) free_.push_back(pool_[k]);
-  const std::size_t slots = fresh_begin_ + (taken > recycled ? taken - recycled : 0);
-  tet_v_.resize(4 * slots);
-  tet_n_.resize(4 * slots);
-  mark_.resize(slots);
+  resizeSlots(fresh_begin_ + (taken > recycled ? taken - recycled : 0));
   std::vector<index_t>().swap(pool_);
   pool_next_ = fresh_begin_ = fresh_end_ = 0;
   ++stats_.parallel_passes;
@@ -1061,13 +1056,12 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const std::vector<in
       std::size_t distinct = 0;
       for (std::size_t a = lo; a < hi; ++a) {
         const std::uint32_t begin = bucket_offset[a - lo], end = bucket_offset[a - lo + 1];
-        unsigned bits = 6;
-        while ((std::size_t(1) << bits) < 2 * std::size_t(end - begin)) ++bits;
+        const unsigned bits = tableBits(2 * std::size_t(end - begin));
         if (seen.size() < (std::size_t(1) << bits)) seen.resize(std::size_t(1) << bits, Seen{0, kNoTet});
         const std::size_t mask = (std::size_t(1) << bits) - 1;
         for (std::uint32_t k = begin; k < end; ++k) {
           const index_t b = bucket[k];
-          std::size_t h = static_cast<std::size_t>((std::uint64_t(b) * 0x9E3779B97F4A7C15ull) >> (64 - bits));
+          std::size_t h = hashKey(b, bits);
           while (seen[h].a == a && seen[h].b != b) h = (h + 1) & mask;
           if (seen[h].a == a) continue;
           seen[h] = {b, static_cast<index_t>(a)};

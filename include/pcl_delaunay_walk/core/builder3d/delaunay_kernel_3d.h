@@ -218,6 +218,9 @@ class DelaunayKernel3D {
   bool inConflict(index_t t, index_t v, const double* p) const;
   bool finiteInConflict(index_t t, index_t v, const double* p) const;
   index_t newTet();
+  // The three per-slot arrays (vertices, neighbour codes, marks) together; new slots read as recycled.
+  void reserveSlots(std::size_t slots);
+  void resizeSlots(std::size_t slots);
   void point(index_t v, double out[3]) const {
     const Vec3f& p = points_[v];
     out[0] = p.x;
