@@ -32,11 +32,18 @@ if [ "$failed" = 0 ]; then
   if [ "${DW_SKIP_SANITIZERS:-0}" != 1 ]; then
     step asan+ubsan bash scripts/sanitize.sh asan
     step tsan bash scripts/sanitize.sh tsan
-    step fuzz bash scripts/fuzz.sh "${DW_FUZZ_SECONDS:-15}"
+    # A fixed seed and a fresh corpus, so runs start alike (scripts/fuzz.sh); long runs are separate.
+    DW_FUZZ_SEED=${DW_FUZZ_SEED:-1} step fuzz bash scripts/fuzz.sh "${DW_FUZZ_SECONDS:-15}"
   fi
   step ctest ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" --timeout 900
 fi
 
 echo "== summary"
 printf '%s\n' "${summary[@]}"
+# A fuzz finding's details, last, where a truncated CI log still shows them.
+findings="${FUZZ_BUILD_DIR:-build-fuzz}/fuzz-findings.txt"
+if [ -s "$findings" ]; then
+  echo "== fuzz findings"
+  cat "$findings"
+fi
 exit $failed
