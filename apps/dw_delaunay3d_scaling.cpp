@@ -57,11 +57,11 @@ Run buildOnce(const std::vector<dw::Vec3f>& pts, unsigned threads, bool validate
   const long base_kb = dw::processStatusKb("VmHWM:");
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::size_t> rounds;
-  const std::vector<dw::index_t> order = dw::builder3d::brioOrder(pts, rounds, 0, threads);
+  std::vector<dw::index_t> order = dw::builder3d::brioOrder(pts, rounds, 0, threads);
   const auto t1 = std::chrono::steady_clock::now();
   dw::builder3d::DelaunayKernel3D kernel;
   kernel.setPoints(pts.data(), pts.size());
-  kernel.build(order.data(), order.size(), {}, rounds, threads);
+  kernel.build(std::move(order), {}, rounds, threads);
   const auto t2 = std::chrono::steady_clock::now();
   const auto stats = kernel.stats();
   if (validate) kernel.validate();

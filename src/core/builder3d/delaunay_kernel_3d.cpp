@@ -130,6 +130,18 @@ void DelaunayKernel3D::build(const index_t* order, std::size_t n,
 
 void DelaunayKernel3D::build(const index_t* order, std::size_t n, const std::function<void(double)>& progress,
                              const std::vector<std::size_t>& batch_begin, unsigned num_threads) {
+  buildBatches(order, n, progress, batch_begin, num_threads, nullptr);
+}
+
+void DelaunayKernel3D::build(std::vector<index_t>&& order, const std::function<void(double)>& progress,
+                             const std::vector<std::size_t>& batch_begin, unsigned num_threads) {
+  buildBatches(order.data(), order.size(), progress, batch_begin, num_threads, &order);
+}
+
+void DelaunayKernel3D::buildBatches(const index_t* order, std::size_t n,
+                                    const std::function<void(double)>& progress,
+                                    const std::vector<std::size_t>& batch_begin, unsigned num_threads,
+                                    std::vector<index_t>* owned) {
   if (points_ == nullptr && n > 0) throw Error("dw::DelaunayKernel3D::build: setPoints() was not called");
   tet_v_.clear();
   tet_n_.clear();
@@ -175,12 +187,18 @@ void DelaunayKernel3D::build(const index_t* order, std::size_t n, const std::fun
     insert(order[i]);
     if (progress && i % report_every == 0) progress(static_cast<double>(i) / n);
   }
-  std::vector<index_t> batch;
+  // Each batch is copied (without the first tetrahedron's vertices) and handed over as the batch's
+  // pending list. The last one is half the points: an order we own is freed before it goes in.
   for (std::size_t r = 0; r + 1 < begin.size(); ++r) {
-    batch.clear();
+    std::vector<index_t> batch;
+    batch.reserve(begin[r + 1] - begin[r]);
     for (std::size_t i = begin[r]; i < begin[r + 1]; ++i)
       if (i != kc && i != kd) batch.push_back(order[i]);
-    insertParallel(batch.data(), batch.size(), num_threads);
+    if (owned != nullptr && r + 2 == begin.size()) {
+      detail::freeScratch(*owned);  // its pages leave the process (a plain free kept them in the heap)
+      order = nullptr;
+    }
+    insertBatch(std::move(batch), num_threads);
     if (progress) progress(static_cast<double>(begin[r + 1]) / n);
   }
   if (progress) progress(1.0);
@@ -723,7 +741,11 @@ void DelaunayKernel3D::insertParallel(const index_t* ids, std::size_t m, unsigne
   if (track_births_) throw Error("dw::DelaunayKernel3D::insertParallel: not with trackBirths(true)");
   for (std::size_t i = 0; i < m; ++i)
     if (ids[i] >= num_points_) throw Error("dw::DelaunayKernel3D::insertParallel: vertex id out of range");
-  std::vector<index_t> pending(ids, ids + m);
+  insertBatch(std::vector<index_t>(ids, ids + m), num_threads);
+}
+
+void DelaunayKernel3D::insertBatch(std::vector<index_t> pending, unsigned num_threads) {
+  const std::size_t m = pending.size();
   std::sort(pending.begin(), pending.end());
   // Small batches use fewer threads (min_points_per_thread_, see the header); two threads already
   // share a batch of half that many points. When a pass stalls (under a quarter of its points went in),
@@ -769,13 +791,20 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
   std::vector<Worker> workers(threads);
   for (unsigned i = 0; i < threads; ++i) own[i] = {&split, points_, num_points_, i};
   // In id order per thread: ids follow a space-filling curve, so consecutive walks are short.
+  {
+    std::vector<std::size_t> count(threads, 0);  // sized exactly: no list holds twice its points
+    for (index_t v : pending) ++count[split.cellOf(points_[v])];
+    for (unsigned i = 0; i < threads; ++i) workers[i].deferred.reserve(count[i]);
+  }
   for (index_t v : pending) workers[split.cellOf(points_[v])].deferred.push_back(v);  // the to-do lists
+  const std::size_t points_in_pass = pending.size();
+  detail::freeScratch(pending);  // held again by the to-do lists; refilled after the pass
 
   // Slots: the recycled ones first (sorted, so that a chunk is one part of the arrays and two threads
   // rarely write one cache line), then fresh ones for the rest of the growth (about 6.7 per point).
   // Counting the recycled ones keeps repeated passes from inflating the arrays.
   const std::size_t used = tet_v_.size() / 4;
-  const std::size_t growth = 7 * pending.size() + 2 * kSlotChunk * threads;
+  const std::size_t growth = 7 * points_in_pass + 2 * kSlotChunk * threads;
   const std::size_t fresh = (growth > free_.size() ? growth - free_.size() : 0) + kSlotChunk * threads;
   if (4 * (used + fresh) > tet_v_.capacity()) reserveSlots(used + fresh + (used + fresh) / 8);
   // The fresh range is mostly untouched memory: take its page faults on all threads first (the
@@ -855,6 +884,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
       }
       w.stats.parallel_busy_sum =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - busy_start).count();
+      detail::freeScratch(todo);  // freed plainly, its pages stayed in this thread's heap
     }
   });
 
@@ -863,6 +893,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
   for (auto& w : workers) {
     busy_max = std::max(busy_max, w.stats.parallel_busy_sum);
     pending.insert(pending.end(), w.deferred.begin(), w.deferred.end());
+    detail::freeScratch(w.deferred);
     free_.insert(free_.end(), w.free.begin(), w.free.end());
     num_inserted_ += w.stats.parallel_inserted;
     stats_.add(w.stats);

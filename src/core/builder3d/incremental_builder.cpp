@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <thread>
+#include <utility>
 
 #include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
 #include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
@@ -36,8 +37,8 @@ EdgeList incrementalDelaunayEdges(const std::vector<Vec3f>& points, const BuildO
       std::function<void(double)> progress;
       if (options.progress) progress = [&](double f) { options.progress("delaunay3d", f); };
       std::vector<std::size_t> rounds;
-      const std::vector<index_t> order = builder3d::brioOrder(points, rounds, 0, threads);
-      kernel.build(order.data(), order.size(), progress, rounds, threads);
+      std::vector<index_t> order = builder3d::brioOrder(points, rounds, 0, threads);
+      kernel.build(std::move(order), progress, rounds, threads);  // freed before the last round
     }
     chunks = kernel.releaseIntoEdgeChunks(threads);
   }

@@ -46,6 +46,10 @@ class DelaunayKernel3D {
   /// first batch go in one by one. For BRIO rounds: each round is spread over the whole cloud.
   void build(const index_t* order, std::size_t n, const std::function<void(double)>& progress,
              const std::vector<std::size_t>& batch_begin, unsigned num_threads);
+  /// The same, taking the order over: it is freed once the last batch is copied out, before that
+  /// batch (the biggest BRIO round, half the points) goes in, where the builder's memory peaks.
+  void build(std::vector<index_t>&& order, const std::function<void(double)>& progress,
+             const std::vector<std::size_t>& batch_begin, unsigned num_threads);
 
   /// Inserts one more vertex (a point distinct from every vertex present) into a built triangulation.
   void insert(index_t v);
@@ -208,6 +212,12 @@ class DelaunayKernel3D {
   bool takeSlots(Worker& w, std::size_t count);
   index_t takeSlot(Worker& w);
   void runParallelPass(std::vector<index_t>& pending, unsigned threads, unsigned pass);
+  // build()'s body; `owned`, when given, is `order`'s vector, freed before the last batch.
+  void buildBatches(const index_t* order, std::size_t n, const std::function<void(double)>& progress,
+                    const std::vector<std::size_t>& batch_begin, unsigned num_threads,
+                    std::vector<index_t>* owned);
+  // insertParallel() on a batch it takes over (validated by the caller).
+  void insertBatch(std::vector<index_t> pending, unsigned num_threads);
 
   static EdgeChunks extractEdges(const std::vector<index_t>& tet_v, std::size_t num_points,
                                  unsigned num_threads, std::size_t first, std::size_t last);
