@@ -27,6 +27,8 @@ step() {  # name command...
   return 0
 }
 
+findings="${FUZZ_BUILD_DIR:-build-fuzz}/fuzz-findings.txt"
+rm -f "$findings"  # only this run's findings are printed at the end
 step setup bash scripts/setup.sh
 if [ "$failed" = 0 ]; then
   if [ "${DW_SKIP_SANITIZERS:-0}" != 1 ]; then
@@ -41,7 +43,6 @@ fi
 echo "== summary"
 printf '%s\n' "${summary[@]}"
 # A fuzz finding's details, last, where a truncated CI log still shows them.
-findings="${FUZZ_BUILD_DIR:-build-fuzz}/fuzz-findings.txt"
 if [ -s "$findings" ]; then
   echo "== fuzz findings"
   cat "$findings"
