@@ -7,8 +7,6 @@
 /// gave the same edge set (an order-free checksum).
 ///   dw_delaunay3d_scaling -n 1M [--threads 1,2,4,8,16] [--repeats R] [--validate] [--independent]
 ///   dw_delaunay3d_scaling --file cloud.{pcd,ply} [...]
-#include <malloc.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -55,9 +53,6 @@ struct Run {
 
 Run buildOnce(const std::vector<dw::Vec3f>& pts, unsigned threads, bool validate) {
   Run r;
-  // Freed heap that glibc kept from earlier builds would be reused without counting: give it back
-  // first, so that the high-water mark starts from what is really in use.
-  malloc_trim(0);
   dw::resetPeakResident();
   const long base_kb = dw::processStatusKb("VmHWM:");
   const auto t0 = std::chrono::steady_clock::now();

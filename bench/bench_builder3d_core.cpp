@@ -7,7 +7,6 @@
 //   DW_BENCH_BIG=1 bench_builder3d_core        # also uniform 4M (incremental, CGAL)
 //   DW_BENCH_QHULL_1M=1 bench_builder3d_core   # also Qhull at 1M (tens of seconds per run)
 #include <benchmark/benchmark.h>
-#include <malloc.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -26,6 +25,7 @@
 #include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
 #include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
 #include "pcl_delaunay_walk/core/graph_builder.h"
+#include "pcl_delaunay_walk/core/process_memory.h"
 #include "pcl_delaunay_walk/core/space_filling_curve.h"
 
 #ifdef DW_HAVE_CGAL
@@ -97,12 +97,11 @@ const Points& dataset(const std::string& name) {
 
 // Peak memory a build adds: run it in a forked child and compare the child's peak resident set with
 // that of a child that does nothing (both start with the parent's pages, data sets included). The
-// parent's free heap goes back to the system first: a child reusing the blocks that earlier timed runs
-// freed but glibc kept resident added no pages (100k points: 64 B/pt for ours on 2 threads, 2.8 for
-// CGAL).
+// parent's free heap goes back to the system first (dw::releaseFreeHeap): a child reusing blocks that
+// earlier timed runs freed added no pages (100k points read 64 B/pt for ours on 2 threads).
 template <class Fn>
 double peakBytesOf(Fn&& fn) {
-  malloc_trim(0);
+  dw::releaseFreeHeap();
   auto childPeak = [](auto&& body) -> double {
     const pid_t pid = fork();
     if (pid == 0) {

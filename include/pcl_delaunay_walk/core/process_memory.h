@@ -6,6 +6,9 @@
 #include <cstring>
 #include <fstream>
 #include <string>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 namespace dw {
 
@@ -19,9 +22,20 @@ inline long processStatusKb(const char* key) {
   return 0;
 }
 
+/// Gives the heap's free memory back to the system (glibc; a no-op elsewhere). Blocks that earlier
+/// runs freed stay resident otherwise, and a later run that reuses them adds no pages: a peak measured
+/// after it reads low (the 3D builder's bench read 2.8 B/point for CGAL at 100k points).
+inline void releaseFreeHeap() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
+}
+
 /// Resets the kernel's peak-resident mark (VmHWM) to the current resident size, so that the next
 /// reading measures one run's own peak (Linux: writing 5 to /proc/self/clear_refs; a no-op elsewhere).
+/// The free heap goes back first (releaseFreeHeap), so that the mark starts from what is in use.
 inline void resetPeakResident() {
+  releaseFreeHeap();
   std::ofstream f("/proc/self/clear_refs");
   f << "5";
 }
