@@ -103,6 +103,25 @@ TEST(PartitionedInsertion, BatchIntoBuiltTriangulationEqualsFreshBuild) {
   EXPECT_EQ(edgesOf(k), parallelBuild(pts, 1));
 }
 
+TEST(PartitionedInsertion, SmallBatchIntoBigTriangulationEqualsFreshBuild) {
+  // A sliding window's update: a batch of a few percent of the points. Its passes find each vertex's
+  // cell through the split tree rather than a per-point table (the other tests take the table).
+  const auto pts = b3d_test::mortonSorted(b3d_test::uniformCube(40000, 58));
+  std::vector<dw::index_t> first, second;
+  for (dw::index_t i = 0; i < pts.size(); ++i) (i % 16 == 3 ? second : first).push_back(i);
+  DelaunayKernel3D k;
+  k.setMinPointsPerThread(kTestMinPerThread);
+  k.setPoints(pts.data(), pts.size());
+  const auto order = dw::builder3d::brioOrder(pts, first);
+  k.build(order.data(), order.size());
+  ASSERT_LT(second.size() * 8, pts.size());
+  k.insertParallel(second.data(), second.size(), 4);
+  k.validate();
+  EXPECT_EQ(k.numVertices(), pts.size());
+  EXPECT_GT(k.stats().parallel_inserted, second.size() / 2);
+  EXPECT_EQ(edgesOf(k), parallelBuild(pts, 1));
+}
+
 TEST(ParallelInsertion, BadBatchesThrowAndLeaveAValidTriangulation) {
   auto pts = b3d_test::mortonSorted(b3d_test::uniformCube(20000, 57));
   std::vector<dw::index_t> first, second;

@@ -305,12 +305,14 @@ struct DelaunayKernel3D::Cell {
   static constexpr bool kShared = true;
   const CellSplit* split = nullptr;
   const Vec3f* points = nullptr;
+  const std::uint8_t* cell_of = nullptr;  // every point's cell in this pass, when the pass has one
   std::size_t n = 0;
   unsigned me = 0;
   bool ownsVertex(index_t v) const {
     if (v >= n) return v == kInfinite;  // not kDead
-    return split->cellOf(points[v]) == me;
+    return cellOf(v) == me;
   }
+  unsigned cellOf(index_t v) const { return cell_of != nullptr ? cell_of[v] : split->cellOf(points[v]); }
 };
 
 namespace {
@@ -755,7 +757,8 @@ void DelaunayKernel3D::insertBatch(std::vector<index_t> pending, unsigned num_th
   const std::size_t min_per_thread = std::max<std::size_t>(1, min_points_per_thread_);
   constexpr unsigned kMaxPasses = 12;
   const std::size_t by_size = std::max<std::size_t>(m / min_per_thread, m >= min_per_thread / 2 ? 2 : 1);
-  unsigned threads = static_cast<unsigned>(std::min<std::size_t>(num_threads, by_size));
+  constexpr unsigned kMaxCells = 256;  // a pass's cell ids are bytes
+  unsigned threads = static_cast<unsigned>(std::min<std::size_t>({num_threads, by_size, kMaxCells}));
   for (unsigned pass = 0; pass < kMaxPasses && threads > 1; ++pass) {
     if (pending.size() < threads * min_per_thread / 4)
       threads = static_cast<unsigned>(pending.size() * 4 / min_per_thread);
@@ -787,16 +790,25 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
     for (std::size_t k = 0; k < pending.size(); k += stride) ids.push_back(pending[k]);
     split.build(points_, ids.data(), ids.size(), threads, pass);
   }
+  // Every point's cell, found once: ownership is tested ~50 times per insertion, each a descent of
+  // the split tree (4 levels of projections at 16 threads; the device's 16-thread builds of 4M points
+  // then took 15 % more thread time). Not for a pass that inserts few points into many (a sliding
+  // window's update), which would pay for a byte per point to test a handful.
+  std::vector<std::uint8_t> cell_of(pending.size() * 8 >= num_points_ ? num_points_ : 0);
+  parallelFor(cell_of.size(), threads, [&](std::size_t b, std::size_t e, unsigned) {
+    for (std::size_t v = b; v < e; ++v) cell_of[v] = static_cast<std::uint8_t>(split.cellOf(points_[v]));
+  });
   std::vector<Cell> own(threads);
   std::vector<Worker> workers(threads);
-  for (unsigned i = 0; i < threads; ++i) own[i] = {&split, points_, num_points_, i};
+  for (unsigned i = 0; i < threads; ++i)
+    own[i] = {&split, points_, cell_of.empty() ? nullptr : cell_of.data(), num_points_, i};
   // In id order per thread: ids follow a space-filling curve, so consecutive walks are short.
   {
     std::vector<std::size_t> count(threads, 0);  // sized exactly: no list holds twice its points
-    for (index_t v : pending) ++count[split.cellOf(points_[v])];
+    for (index_t v : pending) ++count[own[0].cellOf(v)];
     for (unsigned i = 0; i < threads; ++i) workers[i].deferred.reserve(count[i]);
   }
-  for (index_t v : pending) workers[split.cellOf(points_[v])].deferred.push_back(v);  // the to-do lists
+  for (index_t v : pending) workers[own[0].cellOf(v)].deferred.push_back(v);  // the to-do lists
   const std::size_t points_in_pass = pending.size();
   detail::freeScratch(pending);  // held again by the to-do lists; refilled after the pass
 
@@ -906,6 +918,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
   for (std::size_t k = taken; k < recycled; ++k) free_.push_back(pool_[k]);
   resizeSlots(fresh_begin_ + (taken > recycled ? taken - recycled : 0));
   std::vector<index_t>().swap(pool_);
+  detail::freeScratch(cell_of);
   pool_next_ = fresh_begin_ = fresh_end_ = 0;
   ++stats_.parallel_passes;
   stats_.parallel_busy_max += busy_max;
