@@ -342,8 +342,9 @@ inline unsigned nextRandom(std::uint32_t& rng) {
 constexpr std::uint64_t kSharedWalkGuard = 4096;
 // Nearby ids tried as walk starts when a parallel walk leaves the thread's tetrahedra.
 constexpr index_t kRestartCandidates = 6;
-// Fresh slots handed to a thread at a time.
-constexpr std::size_t kSlotChunk = 1024;
+// Fresh slots handed to a thread at a time. A pass maps three chunks per thread beyond its growth
+// estimate; with 1024, that slack held 4 B/pt of the dragon's peak at 16 threads.
+constexpr std::size_t kSlotChunk = 256;
 // Pending points sampled for a pass's cuts (at most about this many).
 constexpr std::size_t kSplitSample = 1 << 15;
 
@@ -1009,9 +1010,11 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const std::vector<in
   // 1. Ranges: `budget` occurrences each, estimated as 6 per tetrahedron slot spread over all points
   // (a range holding more only makes its buffer bigger). At least one range per thread. Each thread
   // holds one range's buffer, so the budget shrinks with the thread count (a floor of 2^18 gave the
-  // dragon's 16 threads 38 bytes per point of buffers, and the extraction a peak above the insertion's).
+  // dragon's 16 threads 38 bytes per point of buffers, and the extraction a peak above the insertion's;
+  // 4 occurrences per point per thread still put the dragon's 4-16 thread extraction 6-10 B/pt above
+  // it, so 2 now, with no change in time measured on 1-2 threads).
   const std::size_t span = last - first;
-  const std::size_t budget = std::max<std::size_t>(std::size_t(1) << 16, 4 * span / num_threads);
+  const std::size_t budget = std::max<std::size_t>(std::size_t(1) << 15, 2 * span / num_threads);
   const std::size_t per_vertex = std::max<std::size_t>(1, 6 * nt / std::max<std::size_t>(n, 1));
   const std::size_t wanted =
       std::min(span, std::max<std::size_t>(num_threads, (span * per_vertex + budget - 1) / budget));
