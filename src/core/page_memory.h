@@ -79,8 +79,8 @@ inline void releaseSlice(void* p, std::size_t bytes, std::size_t k, std::size_t 
 
 /// Gives the whole pages of a vector's unused capacity (beyond its size) back to the system; growing
 /// into them later maps them again.
-template <class T>
-void releaseUnused(std::vector<T>& v) {
+template <class T, class A>
+void releaseUnused(std::vector<T, A>& v) {
   releaseSlice(v.data() + v.size(), (v.capacity() - v.size()) * sizeof(T), 0, 1);
 }
 
@@ -88,10 +88,10 @@ void releaseUnused(std::vector<T>& v) {
 /// threshold after freeing a big block, so later scratch of tens of MiB comes from the heap and stays
 /// resident after free (measured: the 2-thread insertion order's two 16 MiB sort buffers stayed in
 /// the 1M-point build's peak as 16 bytes per point).
-template <class T>
-void freeScratch(std::vector<T>& v) {
+template <class T, class A>
+void freeScratch(std::vector<T, A>& v) {
   releaseSlice(v.data(), v.capacity() * sizeof(T), 0, 1);
-  std::vector<T>().swap(v);
+  std::vector<T, A>().swap(v);
 }
 
 }  // namespace detail

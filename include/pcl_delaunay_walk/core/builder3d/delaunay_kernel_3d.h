@@ -21,9 +21,15 @@
 #include <vector>
 
 #include "pcl_delaunay_walk/core/types.h"
+#include "pcl_delaunay_walk/core/uninitialised_allocator.h"
 
 namespace dw {
 namespace builder3d {
+
+/// The kernel's per-tetrahedron arrays: resize(n) leaves new slots unwritten (a parallel pass writes
+/// them as its threads take them).
+template <class T>
+using SlotArray = std::vector<T, UninitialisedAllocator<T>>;
 
 class DelaunayKernel3D {
  public:
@@ -219,7 +225,7 @@ class DelaunayKernel3D {
   // insertParallel() on a batch it takes over (validated by the caller).
   void insertBatch(std::vector<index_t> pending, unsigned num_threads);
 
-  static EdgeChunks extractEdges(const std::vector<index_t>& tet_v, std::size_t num_points,
+  static EdgeChunks extractEdges(const SlotArray<index_t>& tet_v, std::size_t num_points,
                                  unsigned num_threads, std::size_t first, std::size_t last);
   void initialTetrahedron(index_t a, index_t b, index_t c, index_t d);
   index_t locate(index_t v, index_t start);
@@ -245,12 +251,12 @@ class DelaunayKernel3D {
   // Vertices and neighbour codes in separate arrays (measured: interleaving them in one cache line
   // made no difference), so the adjacency can be freed before the edge extraction, which needs only
   // the vertices: that keeps the builder's peak near one copy of the tetrahedra.
-  std::vector<index_t> tet_v_;        // 4 per tetrahedron
-  std::vector<std::uint32_t> tet_n_;  // 4 per tetrahedron: neighbour tet * 4 + the shared face's index there
+  SlotArray<index_t> tet_v_;        // 4 per tetrahedron
+  SlotArray<std::uint32_t> tet_n_;  // 4 per tetrahedron: neighbour tet * 4 + the shared face's index there
   // Per tetrahedron, during one insertion. Not a char type, so that its stores do not force the
   // compiler to reload everything else (char may alias any object).
   enum class Mark : std::uint8_t { kUnknown, kCavity, kOutside };
-  std::vector<Mark> mark_;
+  SlotArray<Mark> mark_;
   std::vector<index_t> free_;         // recycled tetrahedra
   std::vector<std::uint32_t> birth_;  // per tetrahedron, with track_births_
   static constexpr std::size_t kDirectLinkMax = 64;
