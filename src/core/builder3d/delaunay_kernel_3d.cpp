@@ -819,13 +819,34 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
   std::vector<Worker> workers(threads);
   for (unsigned i = 0; i < threads; ++i)
     own[i] = {&split, points_, cell_of.empty() ? nullptr : cell_of.data(), num_points_, i};
-  // In id order per thread: ids follow a space-filling curve, so consecutive walks are short.
+  // The to-do lists, sized exactly (no list holds twice its points) and in id order per thread: ids
+  // follow a space-filling curve, so consecutive walks are short. Slices of the pending list are
+  // counted per cell, then copied to their offsets, both on all threads (one thread took 0.14 s of a
+  // 4M-point build on 16).
   {
-    std::vector<std::size_t> count(threads, 0);  // sized exactly: no list holds twice its points
-    for (index_t v : pending) ++count[own[0].cellOf(v)];
-    for (unsigned i = 0; i < threads; ++i) workers[i].deferred.reserve(count[i]);
+    const unsigned parts = workerCount(pending.size(), threads, 1 << 14);
+    std::vector<std::size_t> at(std::size_t(parts) * threads, 0);  // slice p, cell i: at[p * threads + i]
+    parallelFor(pending.size(), parts, [&](std::size_t b, std::size_t e, unsigned p) {
+      std::size_t* count = &at[std::size_t(p) * threads];
+      for (std::size_t k = b; k < e; ++k) ++count[own[0].cellOf(pending[k])];
+    });
+    for (unsigned i = 0; i < threads; ++i) {
+      std::size_t total = 0;
+      for (unsigned p = 0; p < parts; ++p) {
+        const std::size_t c = at[std::size_t(p) * threads + i];
+        at[std::size_t(p) * threads + i] = total;
+        total += c;
+      }
+      workers[i].deferred.resize(total);
+    }
+    parallelFor(pending.size(), parts, [&](std::size_t b, std::size_t e, unsigned p) {
+      std::size_t* next = &at[std::size_t(p) * threads];
+      for (std::size_t k = b; k < e; ++k) {
+        const unsigned i = own[0].cellOf(pending[k]);
+        workers[i].deferred[next[i]++] = pending[k];
+      }
+    });
   }
-  for (index_t v : pending) workers[own[0].cellOf(v)].deferred.push_back(v);  // the to-do lists
   const std::size_t points_in_pass = pending.size();
   detail::freeScratch(pending);  // held again by the to-do lists; refilled after the pass
 
