@@ -68,12 +68,6 @@ void DelaunayKernel3D::reserveSlots(std::size_t slots) {
   mark_.reserve(slots);
 }
 
-void DelaunayKernel3D::resizeSlots(std::size_t slots) {
-  tet_v_.resize(4 * slots, kDead);
-  tet_n_.resize(4 * slots, 0);
-  mark_.resize(slots, Mark::kUnknown);
-}
-
 index_t DelaunayKernel3D::newTet() {
   if (!free_.empty()) {
     const index_t t = free_.back();
@@ -343,8 +337,9 @@ inline unsigned nextRandom(std::uint32_t& rng) {
 constexpr std::uint64_t kSharedWalkGuard = 4096;
 // Nearby ids tried as walk starts when a parallel walk leaves the thread's tetrahedra.
 constexpr index_t kRestartCandidates = 6;
-// Fresh slots handed to a thread at a time. A pass maps three chunks per thread beyond its growth
-// estimate; with 1024, that slack held 4 B/pt of the dragon's peak at 16 threads.
+// Fresh slots handed to a thread at a time. Only taken chunks are written (and so mapped); a thread's
+// last chunk is partly unused, and with 1024 (when the whole range was written up front) the pass's
+// slack of three chunks per thread held 4 B/pt of the dragon's peak at 16 threads.
 constexpr std::size_t kSlotChunk = 256;
 // Pending points sampled for a pass's cuts (at most about this many).
 constexpr std::size_t kSplitSample = 1 << 15;
@@ -487,6 +482,26 @@ void DelaunayKernel3D::insert(index_t v) {
   stats_.add(seq_.stats);
 }
 
+void DelaunayKernel3D::sizeSlotsUnwritten(std::size_t slots) {
+  tet_v_.resize(4 * slots);
+  tet_n_.resize(4 * slots);
+  mark_.resize(slots);
+}
+
+void DelaunayKernel3D::resizeSlots(std::size_t slots) {
+  const std::size_t old = tet_v_.size() / 4;
+  sizeSlotsUnwritten(slots);
+  for (std::size_t t = old; t < slots; ++t) clearSlot(t);
+}
+
+void DelaunayKernel3D::clearSlot(std::size_t t) {
+  for (unsigned j = 0; j < 4; ++j) {  // atomic like every write another thread may read
+    store<true>(tet_v_[4 * t + j], kDead);
+    store<true>(tet_n_[4 * t + j], 0);
+  }
+  mark_[t] = Mark::kUnknown;
+}
+
 bool DelaunayKernel3D::takeSlots(Worker& w, std::size_t count) {
   // The pass's slot pool is the recycled slots (pool_, sorted) followed by the fresh range
   // [fresh_begin_, fresh_end_); threads take it in chunks as they need it.
@@ -499,13 +514,8 @@ bool DelaunayKernel3D::takeSlots(Worker& w, std::size_t count) {
         w.free.push_back(pool_[k]);
         continue;
       }
-      // A fresh slot was never written (SlotArray): make it a recycled one, as resizeSlots would.
       const std::size_t t = fresh_begin_ + (k - recycled);
-      for (unsigned j = 0; j < 4; ++j) {  // atomic like every write another thread may read
-        store<true>(tet_v_[4 * t + j], kDead);
-        store<true>(tet_n_[4 * t + j], 0);
-      }
-      mark_[t] = Mark::kUnknown;
+      clearSlot(t);  // the fresh range was sized unwritten
       w.free.push_back(static_cast<index_t>(t));
     }
   }
@@ -824,11 +834,12 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
   // counted per cell, then copied to their offsets, both on all threads (one thread took 0.14 s of a
   // 4M-point build on 16).
   {
+    const Cell& cells = own[0];  // any thread's view gives every point's cell
     const unsigned parts = workerCount(pending.size(), threads, 1 << 14);
     std::vector<std::size_t> at(std::size_t(parts) * threads, 0);  // slice p, cell i: at[p * threads + i]
     parallelFor(pending.size(), parts, [&](std::size_t b, std::size_t e, unsigned p) {
       std::size_t* count = &at[std::size_t(p) * threads];
-      for (std::size_t k = b; k < e; ++k) ++count[own[0].cellOf(pending[k])];
+      for (std::size_t k = b; k < e; ++k) ++count[cells.cellOf(pending[k])];
     });
     for (unsigned i = 0; i < threads; ++i) {
       std::size_t total = 0;
@@ -842,7 +853,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
     parallelFor(pending.size(), parts, [&](std::size_t b, std::size_t e, unsigned p) {
       std::size_t* next = &at[std::size_t(p) * threads];
       for (std::size_t k = b; k < e; ++k) {
-        const unsigned i = own[0].cellOf(pending[k]);
+        const unsigned i = cells.cellOf(pending[k]);
         workers[i].deferred[next[i]++] = pending[k];
       }
     });
@@ -860,9 +871,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
   // The fresh range is only reserved here: a thread writes (and so maps) a chunk when it takes it
   // (takeSlots). Writing the range here, on one thread, took 0.13 s of a 4M-point build on 16 threads,
   // and faulting it in beforehand made the estimate's unused part resident (about 0.3 slots per point).
-  tet_v_.resize(4 * (used + fresh));
-  tet_n_.resize(4 * (used + fresh));
-  mark_.resize(used + fresh);
+  sizeSlotsUnwritten(used + fresh);
   pool_.swap(free_);
   free_.clear();
   std::sort(pool_.begin(), pool_.end());

@@ -236,7 +236,11 @@ class DelaunayKernel3D {
   index_t newTet();
   // The three per-slot arrays (vertices, neighbour codes, marks) together; new slots read as recycled.
   void reserveSlots(std::size_t slots);
+  // resizeSlots: new slots are cleared (recycled state). sizeSlotsUnwritten: new slots are left for
+  // whoever takes them to clear (a parallel pass's fresh range; takeSlots).
   void resizeSlots(std::size_t slots);
+  void sizeSlotsUnwritten(std::size_t slots);
+  void clearSlot(std::size_t t);
   void point(index_t v, double out[3]) const {
     const Vec3f& p = points_[v];
     out[0] = p.x;
