@@ -23,6 +23,11 @@ namespace detail {
 double orient3dExact(const double* a, const double* b, const double* c, const double* d);
 double insphereExact(const double* a, const double* b, const double* c, const double* d, const double* e);
 double orient2dExact(const double* a, const double* b, const double* c);
+/// What the inline filters leave: Shewchuk's stage-A bound on the permanent, then the exact value.
+/// Recomputes the determinant in the same arithmetic as the inline part, so the value returned when
+/// the bound decides is the very same double.
+double orient3dTail(const double* a, const double* b, const double* c, const double* d);
+double insphereTail(const double* a, const double* b, const double* c, const double* d, const double* e);
 
 // Shewchuk's stage-A error bound coefficients with eps = 2^-53.
 constexpr double kEps = 1.1102230246251565e-16;
@@ -61,29 +66,21 @@ inline double orient2d(const double* a, const double* b, const double* c) {
   return detail::orient2dExact(a, b, c);
 }
 
-/// Sign-exact orient3d (see the file comment for the convention).
+/// Sign-exact orient3d (see the file comment for the convention). The inline part is what almost
+/// every call needs (the semi-static filter); the rest is out of line (detail::orient3dTail), so the
+/// fast path keeps its values in registers instead of spilling the permanent's terms.
 inline double orient3d(const double* a, const double* b, const double* c, const double* d) {
   const double adx = a[0] - d[0], ady = a[1] - d[1], adz = a[2] - d[2];
   const double bdx = b[0] - d[0], bdy = b[1] - d[1], bdz = b[2] - d[2];
   const double cdx = c[0] - d[0], cdy = c[1] - d[1], cdz = c[2] - d[2];
-  const double bdxcdy = bdx * cdy, cdxbdy = cdx * bdy;
-  const double cdxady = cdx * ady, adxcdy = adx * cdy;
-  const double adxbdy = adx * bdy, bdxady = bdx * ady;
-  const double det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
-  {
-    const double m =
-        detail::maxOf(detail::maxOf(detail::maxAbs(adx, ady, adz, bdx), detail::maxAbs(bdy, bdz, cdx, cdy)),
-                      std::fabs(cdz));
-    const double m3 = m * m * m;
-    const double sbound = detail::kO3dStatic * m3;
-    if (m3 > detail::kStaticMin && (det > sbound || -det > sbound)) return det;
-  }
-  const double permanent = (std::fabs(bdxcdy) + std::fabs(cdxbdy)) * std::fabs(adz) +
-                           (std::fabs(cdxady) + std::fabs(adxcdy)) * std::fabs(bdz) +
-                           (std::fabs(adxbdy) + std::fabs(bdxady)) * std::fabs(cdz);
-  const double bound = detail::kO3dBoundA * permanent;
-  if (det > bound || -det > bound) return det;
-  return detail::orient3dExact(a, b, c, d);
+  const double det =
+      adz * (bdx * cdy - cdx * bdy) + bdz * (cdx * ady - adx * cdy) + cdz * (adx * bdy - bdx * ady);
+  const double m = detail::maxOf(
+      detail::maxOf(detail::maxAbs(adx, ady, adz, bdx), detail::maxAbs(bdy, bdz, cdx, cdy)), std::fabs(cdz));
+  const double m3 = m * m * m;
+  const double sbound = detail::kO3dStatic * m3;
+  if (m3 > detail::kStaticMin && (det > sbound || -det > sbound)) return det;
+  return detail::orient3dTail(a, b, c, d);
 }
 
 /// The four orient3d of tetrahedron q with p in place of vertex f: out[f] = orient3d(q with q[f] := p),
@@ -119,17 +116,20 @@ inline void orient3dFaces(const double q[4][3], const double* p, double out[4]) 
 
 /// Sign-exact insphere (see the file comment for the convention). Zero when the five points are
 /// cospherical, or when a, b, c, d are coplanar and e lies on their common circle (or all are coplanar).
+/// Inline: the semi-static filter, which decides almost every call; out of line (detail::insphereTail):
+/// the permanent's bound, then the exact value. Split so that the fast path spills nothing (the
+/// Delaunay kernel runs ~43 of these per inserted point).
 inline double insphere(const double* a, const double* b, const double* c, const double* d, const double* e) {
   const double aex = a[0] - e[0], aey = a[1] - e[1], aez = a[2] - e[2];
   const double bex = b[0] - e[0], bey = b[1] - e[1], bez = b[2] - e[2];
   const double cex = c[0] - e[0], cey = c[1] - e[1], cez = c[2] - e[2];
   const double dex = d[0] - e[0], dey = d[1] - e[1], dez = d[2] - e[2];
-  const double aexbey = aex * bey, bexaey = bex * aey, ab = aexbey - bexaey;
-  const double bexcey = bex * cey, cexbey = cex * bey, bc = bexcey - cexbey;
-  const double cexdey = cex * dey, dexcey = dex * cey, cd = cexdey - dexcey;
-  const double dexaey = dex * aey, aexdey = aex * dey, da = dexaey - aexdey;
-  const double aexcey = aex * cey, cexaey = cex * aey, ac = aexcey - cexaey;
-  const double bexdey = bex * dey, dexbey = dex * bey, bd = bexdey - dexbey;
+  const double ab = aex * bey - bex * aey;
+  const double bc = bex * cey - cex * bey;
+  const double cd = cex * dey - dex * cey;
+  const double da = dex * aey - aex * dey;
+  const double ac = aex * cey - cex * aey;
+  const double bd = bex * dey - dex * bey;
   const double abc = aez * bc - bez * ac + cez * ab;
   const double bcd = bez * cd - cez * bd + dez * bc;
   const double cda = cez * da + dez * ac + aez * cd;
@@ -139,27 +139,11 @@ inline double insphere(const double* a, const double* b, const double* c, const 
   const double clift = cex * cex + cey * cey + cez * cez;
   const double dlift = dex * dex + dey * dey + dez * dez;
   const double det = (dlift * abc - clift * dab) + (blift * cda - alift * bcd);
-  {
-    // M^2 <= the largest lift (a sum of three squares), so det^2 > C^2 L^5 implies |det| > C M^5.
-    const double l = detail::maxOf(detail::maxOf(alift, blift), detail::maxOf(clift, dlift));
-    const double l2 = l * l, l5 = l2 * l2 * l;
-    if (l5 > detail::kStaticMinSq && det * det > detail::kIspStaticSq * l5) return det;
-  }
-
-  const double aezp = std::fabs(aez), bezp = std::fabs(bez), cezp = std::fabs(cez), dezp = std::fabs(dez);
-  const double aexbeyp = std::fabs(aexbey) + std::fabs(bexaey);
-  const double bexceyp = std::fabs(bexcey) + std::fabs(cexbey);
-  const double cexdeyp = std::fabs(cexdey) + std::fabs(dexcey);
-  const double dexaeyp = std::fabs(dexaey) + std::fabs(aexdey);
-  const double aexceyp = std::fabs(aexcey) + std::fabs(cexaey);
-  const double bexdeyp = std::fabs(bexdey) + std::fabs(dexbey);
-  const double permanent = ((cexdeyp * bezp + bexdeyp * cezp + bexceyp * dezp) * alift +
-                            (dexaeyp * cezp + aexceyp * dezp + cexdeyp * aezp) * blift) +
-                           ((aexbeyp * dezp + bexdeyp * aezp + dexaeyp * bezp) * clift +
-                            (bexceyp * aezp + aexceyp * bezp + aexbeyp * cezp) * dlift);
-  const double bound = detail::kIspBoundA * permanent;
-  if (det > bound || -det > bound) return det;
-  return detail::insphereExact(a, b, c, d, e);
+  // M^2 <= the largest lift (a sum of three squares), so det^2 > C^2 L^5 implies |det| > C M^5.
+  const double l = detail::maxOf(detail::maxOf(alift, blift), detail::maxOf(clift, dlift));
+  const double l2 = l * l, l5 = l2 * l2 * l;
+  if (l5 > detail::kStaticMinSq && det * det > detail::kIspStaticSq * l5) return det;
+  return detail::insphereTail(a, b, c, d, e);
 }
 
 /// Sign of x as -1, 0, +1.

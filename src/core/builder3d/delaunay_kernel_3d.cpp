@@ -50,6 +50,28 @@ constexpr unsigned kForwardEdge[4][4][2] = {
     {{1, 2}, {2, 0}, {0, 1}, {0, 0}},
 };
 
+// kFaceLinks[f]: for a new tetrahedron whose boundary face is opposite position f (the new point at
+// f), its three faces through the new point, each as {j, x, y}: face j passes the boundary edge from
+// position x to position y, read outward (kOtherThree and kForwardEdge combined: one load, not two
+// dependent ones, in the linking's inner loop).
+struct FaceLink {
+  std::uint8_t j, x, y;
+};
+struct FaceLinkTable {
+  FaceLink at[4][3];
+};
+constexpr FaceLinkTable makeFaceLinks() {
+  FaceLinkTable t{};
+  for (unsigned f = 0; f < 4; ++f)
+    for (unsigned i = 0; i < 3; ++i) {
+      const unsigned j = kOtherThree[f][i];
+      t.at[f][i] = {static_cast<std::uint8_t>(j), static_cast<std::uint8_t>(kForwardEdge[j][f][0]),
+                    static_cast<std::uint8_t>(kForwardEdge[j][f][1])};
+    }
+  return t;
+}
+constexpr FaceLinkTable kFaceLinks = makeFaceLinks();
+
 }  // namespace
 
 void DelaunayKernel3D::setPoints(const Vec3f* points, std::size_t n) {
@@ -69,19 +91,22 @@ void DelaunayKernel3D::reserveSlots(std::size_t slots) {
 }
 
 index_t DelaunayKernel3D::newTet() {
-  if (!free_.empty()) {
-    const index_t t = free_.back();
-    free_.pop_back();
-    return t;
+  if (free_.empty()) {
+    // Grown kNewTetBatch slots at a time, which go on the free list lowest on top (so they are taken
+    // in order): one slot at a time, the three arrays' resizes cost 3 % of a build's instructions.
+    constexpr std::size_t kNewTetBatch = 64;
+    const std::size_t t = tet_v_.size() / 4;
+    if (t + kNewTetBatch > (std::size_t(1) << 30))
+      throw Error("dw::DelaunayKernel3D: more than 2^30 tetrahedra (neighbour codes are 32-bit)");
+    // Grow by a quarter rather than doubling: the arrays are most of the peak memory.
+    if (4 * (t + kNewTetBatch) > tet_v_.capacity()) reserveSlots(t + t / 4 + kNewTetBatch);
+    resizeSlots(t + kNewTetBatch);
+    if (track_births_) birth_.resize(t + kNewTetBatch, static_cast<std::uint32_t>(num_inserted_));
+    for (std::size_t k = t + kNewTetBatch; k-- > t;) free_.push_back(static_cast<index_t>(k));
   }
-  const std::size_t t = tet_v_.size() / 4;
-  if (t >= (std::size_t(1) << 30))
-    throw Error("dw::DelaunayKernel3D: more than 2^30 tetrahedra (neighbour codes are 32-bit)");
-  // Grow by a quarter rather than doubling: the arrays are most of the peak memory.
-  if (4 * (t + 1) > tet_v_.capacity()) reserveSlots(t + t / 4 + 16);
-  resizeSlots(t + 1);
-  if (track_births_) birth_.push_back(static_cast<std::uint32_t>(num_inserted_));
-  return static_cast<index_t>(t);
+  const index_t t = free_.back();
+  free_.pop_back();
+  return t;
 }
 
 void DelaunayKernel3D::initialTetrahedron(index_t a, index_t b, index_t c, index_t d) {
@@ -435,7 +460,11 @@ index_t DelaunayKernel3D::locateByScan(index_t v) const {
               " (duplicate point or corrupted triangulation)");
 }
 
-bool DelaunayKernel3D::finiteInConflict(index_t t, index_t v, const double* e) const {
+// Both conflict tests are inlined into the cavity search, which runs ~43 per inserted point: the
+// finite case first, since the infinite tetrahedra are a sliver of the mesh; the simulated-simplicity
+// tie and the hull's test stay out of line.
+[[gnu::always_inline]] inline bool DelaunayKernel3D::finiteInConflict(index_t t, index_t v,
+                                                                      const double* e) const {
   const index_t* tv = &tet_v_[4 * std::size_t(t)];
   double a[3], b[3], c[3], d[3];
   point(tv[0], a);
@@ -443,20 +472,26 @@ bool DelaunayKernel3D::finiteInConflict(index_t t, index_t v, const double* e) c
   point(tv[2], c);
   point(tv[3], d);
   const double s = predicates::insphere(a, b, c, d, e);
-  if (s != 0.0) return s > 0.0;
+  if (__builtin_expect(s != 0.0, 1)) return s > 0.0;
   return predicates::insphereSoS(a, b, c, d, e, tv[0], tv[1], tv[2], tv[3], v) > 0;
 }
 
-bool DelaunayKernel3D::inConflict(index_t t, index_t v, const double* p) const {
+[[gnu::always_inline]] inline bool DelaunayKernel3D::inConflict(index_t t, index_t v, const double* p) const {
   const index_t* tv = &tet_v_[4 * std::size_t(t)];
-  unsigned k = 4;
-  for (unsigned j = 0; j < 4; ++j)
-    if (tv[j] == kInfinite) k = j;
-  if (k == 4) return finiteInConflict(t, v, p);
-  // Infinite tetrahedron: in conflict when v lies strictly beyond its hull facet. When v is coplanar
-  // with the facet, the facet survives exactly when v is outside the facet's (perturbed) circumcircle,
-  // which is the conflict test of the finite tetrahedron behind it; deciding both the same way keeps
-  // the cavity connected and never creates a flat tetrahedron.
+  if (__builtin_expect(tv[0] != kInfinite && tv[1] != kInfinite && tv[2] != kInfinite && tv[3] != kInfinite,
+                       1))
+    return finiteInConflict(t, v, p);
+  return infiniteInConflict(t, v, p);
+}
+
+bool DelaunayKernel3D::infiniteInConflict(index_t t, index_t v, const double* p) const {
+  const index_t* tv = &tet_v_[4 * std::size_t(t)];
+  unsigned k = 0;
+  while (tv[k] != kInfinite) ++k;
+  // In conflict when v lies strictly beyond the hull facet. When v is coplanar with the facet, the
+  // facet survives exactly when v is outside the facet's (perturbed) circumcircle, which is the
+  // conflict test of the finite tetrahedron behind it; deciding both the same way keeps the cavity
+  // connected and never creates a flat tetrahedron.
   double q[4][3];
   for (unsigned j = 0; j < 4; ++j) {
     if (j == k) {
@@ -653,7 +688,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
     store<kShared>(tet_n_[4 * std::size_t(nt) + bf.face], bf.outer);
     store<kShared>(tet_n_[bf.outer], 4 * nt + bf.face);
   }
-  linkNewTetrahedra(w);
+  linkNewTetrahedra<kShared>(w);
   w.stats.created_tets += boundary.size();
   for (std::size_t k = boundary.size(); k < cavity.size(); ++k) {
     store<kShared>(tet_v_[4 * std::size_t(cavity[k])], kDead);
@@ -671,67 +706,74 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
   return true;
 }
 
+template <bool kShared>
 void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
   // The boundary is a closed triangulated surface: each of its edges (x, y) lies in exactly two
   // boundary triangles, which pass it in opposite directions when both are read outward-oriented. The
   // new tetrahedron on one triangle records itself under the directed edge x -> y, and finds its
   // neighbour under y -> x. Small boundaries (nearly all) index a V x V table by the boundary
   // vertices' local numbers: two branch-free passes, no probing. Larger ones use a hash on the edge.
-  const auto& boundary = w.boundary;
-  const auto& made = w.made;
-  auto& verts = w.boundary_vertices;
-  auto& corner = w.corner_local;            // per new tetrahedron, the local numbers of its four vertices
-  auto& vert_tet = w.boundary_vertex_tets;  // per boundary vertex, a new tetrahedron holding it
-  verts.resize(3 * boundary.size());
-  vert_tet.resize(3 * boundary.size());
-  corner.resize(4 * boundary.size());
+  //
+  // Raw pointers in locals: through the vectors, every store (atomic ones above all) made the
+  // compiler reload their data pointers and sizes in each iteration.
+  const std::size_t nb = w.boundary.size();
+  const BoundaryFace* boundary = w.boundary.data();
+  const index_t* made = w.made.data();
+  w.corner_local.resize(4 * nb);
+  std::uint32_t* corner = w.corner_local.data();  // per new tetrahedron, its vertices' local numbers
+  std::uint32_t* tet_n = tet_n_.data();
+  index_t* vertex_tet = vertex_tet_.data();
   // The local numbers live, tagged, in the vertices' vertex_tet_ entries (tetrahedron ids stay below
   // 2^30, so a tagged entry is never a tetrahedron): no array of its own. Boundary vertices are this
   // thread's own in a parallel pass; other threads may read a tagged entry and skip it (insertCore).
-  // The infinite vertex is everybody's: its number is the worker's.
-  w.infinite_local = 0;
-  auto slotOf = [&](index_t x) -> index_t& { return x == kInfinite ? w.infinite_local : vertex_tet_[x]; };
+  // The infinite vertex is everybody's: its number is a local's. Each number's vertex, and a new
+  // tetrahedron holding it, are kept for the last step (at most 3 per face).
+  w.boundary_vertices.resize(3 * nb);
+  w.boundary_vertex_tets.resize(3 * nb);
+  index_t* verts = w.boundary_vertices.data();
+  index_t* vert_tet = w.boundary_vertex_tets.data();
+  index_t infinite_local = 0;
   // Branch-free numbering (whether a vertex is new is a coin flip to the branch predictor).
   std::uint32_t nv = 0;
-  for (std::size_t k = 0; k < boundary.size(); ++k) {
+  for (std::size_t k = 0; k < nb; ++k) {
     const BoundaryFace& bf = boundary[k];
     for (unsigned i = 0; i < 3; ++i) {
       const unsigned j = kOtherThree[bf.face][i];
-      index_t& slot = slotOf(bf.v[j]);
-      const index_t cur = load<true>(slot);
+      const index_t x = bf.v[j];
+      index_t& slot = x == kInfinite ? infinite_local : vertex_tet[x];
+      const index_t cur = load<kShared>(slot);
       const bool fresh = (cur & kLocalTag) == 0;
-      verts[nv] = bf.v[j];
+      verts[nv] = x;
       vert_tet[nv] = made[k];
-      store<true>(slot, fresh ? (kLocalTag | nv) : cur);
+      store<kShared>(slot, fresh ? (kLocalTag | nv) : cur);
       corner[4 * k + j] = fresh ? nv : (cur & ~kLocalTag);
       nv += fresh;
     }
   }
-  verts.resize(nv);
   // fn(k, j, x, y): face j of new tetrahedron k passes through v and the boundary edge from its
   // position x to its position y, read outward.
   auto forEachFaceThroughV = [&](auto&& fn) {
-    for (std::size_t k = 0; k < boundary.size(); ++k) {
-      const unsigned f = boundary[k].face;
-      for (unsigned i = 0; i < 3; ++i) {
-        const unsigned j = kOtherThree[f][i];
-        fn(k, j, kForwardEdge[j][f][0], kForwardEdge[j][f][1]);
-      }
+    for (std::size_t k = 0; k < nb; ++k) {
+      const FaceLink* links = kFaceLinks.at[boundary[k].face];
+      for (unsigned i = 0; i < 3; ++i) fn(k, links[i].j, links[i].x, links[i].y);
     }
   };
   if (nv <= kDirectLinkMax) {
-    auto& table = w.link_direct;
-    if (table.size() < std::size_t(nv) * nv) table.resize(kDirectLinkMax * kDirectLinkMax);
+    // Rows of a fixed kDirectLinkMax entries: the index is a shift and an or, not a multiply.
+    static_assert(kDirectLinkMax == 64, "the direct table's rows are indexed by a 6-bit shift");
+    if (w.link_direct.size() < kDirectLinkMax * kDirectLinkMax)
+      w.link_direct.resize(kDirectLinkMax * kDirectLinkMax);
+    std::uint32_t* cell = w.link_direct.data();
     forEachFaceThroughV([&](std::size_t k, unsigned j, unsigned x, unsigned y) {
-      table[corner[4 * k + x] * nv + corner[4 * k + y]] = 4 * made[k] + j;
+      cell[(corner[4 * k + x] << 6) | corner[4 * k + y]] = 4 * made[k] + j;
     });
     forEachFaceThroughV([&](std::size_t k, unsigned j, unsigned x, unsigned y) {
-      store<true>(tet_n_[4 * std::size_t(made[k]) + j], table[corner[4 * k + y] * nv + corner[4 * k + x]]);
+      store<kShared>(tet_n[4 * std::size_t(made[k]) + j], cell[(corner[4 * k + y] << 6) | corner[4 * k + x]]);
     });
   } else {
     // Open addressing on the undirected edge, at most a quarter full; generations tell this
     // insertion's entries from earlier ones.
-    const std::size_t edges = boundary.size() * 3 / 2 + 1;
+    const std::size_t edges = nb * 3 / 2 + 1;
     const unsigned bits = tableBits(4 * edges);
     if (w.link.size() < (std::size_t(1) << bits)) w.link.resize(std::size_t(1) << bits, LinkEntry{});
     if (++w.generation == 0) {
@@ -749,8 +791,8 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
           break;
         }
         if (e.key == key) {
-          store<true>(tet_n_[4 * std::size_t(nt) + j], e.face);
-          store<true>(tet_n_[e.face], 4 * nt + j);
+          store<kShared>(tet_n[4 * std::size_t(nt) + j], e.face);
+          store<kShared>(tet_n[e.face], 4 * nt + j);
           break;
         }
       }
@@ -759,7 +801,7 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
   // Every vertex of a destroyed tetrahedron is on the boundary, so giving each boundary vertex one of
   // the new tetrahedra (which also clears its tag) keeps vertex_tet_ exact (vertex removal aside).
   for (std::uint32_t i = 0; i < nv; ++i)
-    if (verts[i] != kInfinite) store<true>(vertex_tet_[verts[i]], vert_tet[i]);
+    if (verts[i] != kInfinite) store<kShared>(vertex_tet[verts[i]], vert_tet[i]);
 }
 
 void DelaunayKernel3D::insertParallel(const index_t* ids, std::size_t m, unsigned num_threads) {

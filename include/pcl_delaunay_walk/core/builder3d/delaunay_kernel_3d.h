@@ -188,7 +188,6 @@ class DelaunayKernel3D {
     std::vector<index_t> made;                  // the new tetrahedra, one per boundary face
     std::vector<index_t> boundary_vertices;     // their local numbering (linkNewTetrahedra)
     std::vector<std::uint32_t> corner_local;    // local numbers of each new tetrahedron's vertices
-    index_t infinite_local = 0;                 // the infinite vertex's tagged local number (shared vertex)
     std::vector<index_t> boundary_vertex_tets;  // per boundary vertex, a new tetrahedron holding it
     std::vector<std::uint32_t> link_direct;     // V x V directed-edge table
     std::vector<LinkEntry> link;                // hash for boundaries of more than kDirectLinkMax vertices
@@ -214,6 +213,7 @@ class DelaunayKernel3D {
   template <class Owner>
   index_t walkTo(const double* p, index_t start, Worker& w, const Owner& own, std::uint64_t guard) const;
   // Sets the adjacency between the new tetrahedra w.made (on the faces through the new vertex).
+  template <bool kShared>
   void linkNewTetrahedra(Worker& w);
   bool takeSlots(Worker& w, std::size_t count);
   index_t takeSlot(Worker& w);
@@ -233,6 +233,8 @@ class DelaunayKernel3D {
   // Conflict of tetrahedron t with vertex v at p (p = v's coordinates, converted once per insertion).
   bool inConflict(index_t t, index_t v, const double* p) const;
   bool finiteInConflict(index_t t, index_t v, const double* p) const;
+  // t has the infinite vertex: is v beyond its hull facet (or on it and in conflict behind it)?
+  bool infiniteInConflict(index_t t, index_t v, const double* p) const;
   index_t newTet();
   // The three per-slot arrays (vertices, neighbour codes, marks) together; new slots read as recycled.
   void reserveSlots(std::size_t slots);
