@@ -194,6 +194,7 @@ class DelaunayKernel3D {
     std::uint32_t generation = 0;
     std::vector<index_t> free;  // parallel pass: slots this thread took from the pool or recycled
     index_t last_tet = 0;
+    index_t last_vertex = kInfinite;  // the last vertex this worker inserted (none yet: kInfinite)
     std::uint32_t rng = 0x9E3779B9u;
     std::vector<index_t> deferred;
     Stats stats;
@@ -208,6 +209,8 @@ class DelaunayKernel3D {
   bool insertCore(index_t v, Worker& w, const Owner& own);
   template <class Owner>
   bool ownsTet(index_t t, const Owner& own) const;
+  // Where a sequential walk to v (at p) starts: see the definition.
+  index_t walkStart(index_t v, const double* p, const Worker& w) const;
   // Visibility walk from tetrahedron `start` to the one holding p (or the first infinite one beyond
   // the hull); kNoTet after `guard` steps or, with a sharing owner, where it would leave what it owns.
   template <class Owner>
