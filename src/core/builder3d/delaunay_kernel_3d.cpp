@@ -564,7 +564,24 @@ index_t DelaunayKernel3D::takeSlot(Worker& w) {
   return t;
 }
 
-index_t DelaunayKernel3D::walkStart(index_t v, const double* p, const Worker& w) const {
+template <class Owner>
+index_t DelaunayKernel3D::startAtVertex(index_t u, const Owner& own) const {
+  if (u >= num_points_) return kNoTet;  // also catches v - j wrapping below 0
+  const index_t s = load<Owner::kShared>(vertex_tet_[u]);
+  if (s >= kNoVertexTet) return kNoTet;  // not inserted yet, or (tagged) being renumbered
+  if constexpr (Owner::kShared) {
+    // Only a tetrahedron this thread owns, and one that still holds u (vertex removal may leave
+    // vertex_tet_ stale); locate() checks a sequential start itself.
+    if (s >= tet_v_.size() / 4 || !ownsTet(s, own)) return kNoTet;
+    const index_t* sv = &tet_v_[4 * std::size_t(s)];
+    if (load<true>(sv[0]) != u && load<true>(sv[1]) != u && load<true>(sv[2]) != u && load<true>(sv[3]) != u)
+      return kNoTet;
+  }
+  return s;
+}
+
+template <class Owner>
+index_t DelaunayKernel3D::walkStart(index_t v, const double* p, const Worker& w, const Owner& own) const {
   // The last insertion's tetrahedron, or one holding a vertex whose id is next to v's, whichever
   // vertex is nearer to v. Ids follow a space-filling curve (buildDelaunayGraph), and in a BRIO round
   // the last insertion lies about the round's spacing away, an inserted id neighbour about the whole
@@ -579,9 +596,8 @@ index_t DelaunayKernel3D::walkStart(index_t v, const double* p, const Worker& w)
   double best = w.last_vertex < num_points_ ? distance2(w.last_vertex) : HUGE_VAL;
   for (index_t k = 1; k <= 4; ++k) {
     const index_t u = (k & 1) ? v - (k + 1) / 2 : v + (k + 1) / 2;  // v-1, v+1, v-2, v+2
-    if (u >= num_points_) continue;                                 // also catches v - j wrapping below 0
-    const index_t s = vertex_tet_[u];
-    if (s >= kNoVertexTet) continue;  // not inserted (locate() checks that a stale one is live)
+    const index_t s = startAtVertex(u, own);
+    if (s == kNoTet) continue;
     const double d = distance2(u);
     if (d < best) {
       best = d;
@@ -598,26 +614,20 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
   point(v, p);
   index_t t;
   if constexpr (kShared) {
-    t = walkTo(p, w.last_tet, w, own, kSharedWalkGuard);
-    // The last insertion may lie across the cell (late passes hold scattered points), and a walk from
-    // there often has to leave what this thread owns (measured: most deferrals at 16 threads). Ids
-    // follow a space-filling curve, so a vertex with a nearby id is usually near v: walk again from a
+    const index_t start = walkStart(v, p, w, own);
+    t = walkTo(p, start, w, own, kSharedWalkGuard);
+    // The start may lie across the cell (late passes hold scattered points), and a walk from there
+    // often has to leave what this thread owns (measured: most deferrals at 16 threads). Ids follow a
+    // space-filling curve, so a vertex with a nearby id is usually near v: walk again from a
     // tetrahedron holding it (vertex_tet_), if this thread owns it.
     for (index_t k = 1; t == kNoTet && k <= kRestartCandidates; ++k) {
       const index_t u = (k & 1) ? v + (k + 1) / 2 : v - (k + 1) / 2;  // v+1, v-1, v+2, ...
-      if (u >= num_points_) continue;                                 // also catches v - j wrapping below 0
-      const index_t s = load<true>(vertex_tet_[u]);
-      // none yet, being renumbered (tagged), or not this thread's
-      if (s >= kNoVertexTet || s >= tet_v_.size() / 4 || !ownsTet(s, own)) continue;
-      const index_t* sv = &tet_v_[4 * std::size_t(s)];
-      if (load<true>(sv[0]) != u && load<true>(sv[1]) != u && load<true>(sv[2]) != u &&
-          load<true>(sv[3]) != u)
-        continue;  // left stale by a vertex removal
-      t = walkTo(p, s, w, own, kSharedWalkGuard);
+      const index_t s = startAtVertex(u, own);
+      if (s != kNoTet && s != start) t = walkTo(p, s, w, own, kSharedWalkGuard);
     }
     if (t == kNoTet || !ownsTet(t, own)) return false;
   } else {
-    t = locate(v, walkStart(v, p, w));
+    t = locate(v, walkStart(v, p, w, own));
   }
   {
     // A walk that stops in a finite tetrahedron has v in its closed hull, hence strictly inside its

@@ -209,8 +209,13 @@ class DelaunayKernel3D {
   bool insertCore(index_t v, Worker& w, const Owner& own);
   template <class Owner>
   bool ownsTet(index_t t, const Owner& own) const;
-  // Where a sequential walk to v (at p) starts: see the definition.
-  index_t walkStart(index_t v, const double* p, const Worker& w) const;
+  // Where a walk to v (at p) starts: see the definition.
+  template <class Owner>
+  index_t walkStart(index_t v, const double* p, const Worker& w, const Owner& own) const;
+  // A tetrahedron holding vertex u to start a walk from, or kNoTet (u not inserted, or with a sharing
+  // owner, a tetrahedron not owned or left stale).
+  template <class Owner>
+  index_t startAtVertex(index_t u, const Owner& own) const;
   // Visibility walk from tetrahedron `start` to the one holding p (or the first infinite one beyond
   // the hull); kNoTet after `guard` steps or, with a sharing owner, where it would leave what it owns.
   template <class Owner>
