@@ -4,8 +4,10 @@
 #include <pcl/search/kdtree.h>
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <limits>
+#include <random>
 
 #include "pcl_delaunay_walk/search/delaunay_walk.h"
 #include "search_test_util.h"
@@ -160,6 +162,44 @@ TEST(DelaunayWalkExactness, QuantisedUtmCoordinates) {
     c->push_back(pcl::PointXYZ(float(500000.0 + 0.01 * u(rng)), float(6000000.0 + 0.01 * u(rng)),
                                float(100.0 + 0.01 * (u(rng) % 500))));
   checkCloud(c, 60, "utm");
+}
+
+TEST(DelaunayWalkExactness, NearTiesFinerInCallerCoordinatesThanInTheGraphsFrame) {
+  // The graph stores coordinates relative to its bounding box's centre (here 500, 500, 500). Near the
+  // caller's origin the caller's floats are ~1e5 times finer than the graph's, so pairs of points
+  // whose distances to a query differ by 1e-4 (relative) can swap order in the graph's frame. The
+  // answer must be the caller's nearest: the walk's result is certified, or widened, in the caller's
+  // metric. (A search that trusted the graph's frame returned the wrong point of a pair here.)
+  Cloud::Ptr c(new Cloud);
+  for (int corner = 0; corner < 8; ++corner)
+    c->push_back(
+        pcl::PointXYZ(corner & 1 ? 1000.f : 0.f, corner & 2 ? 1000.f : 0.f, corner & 4 ? 1000.f : 0.f));
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> pos(0.05f, 1.f), dir(-1.f, 1.f);
+  std::vector<pcl::PointXYZ> queries;
+  for (int k = 0; k < 300; ++k) {
+    const pcl::PointXYZ q(pos(rng), pos(rng), pos(rng));
+    float a[3] = {dir(rng), dir(rng), dir(rng)};
+    const float len = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+    const float r = 0.01f / len, r2 = r * (1.f + 1e-4f);
+    c->push_back(pcl::PointXYZ(q.x + r * a[0], q.y + r * a[1], q.z + r * a[2]));
+    c->push_back(pcl::PointXYZ(q.x - r2 * a[0], q.y - r2 * a[1], q.z - r2 * a[2]));
+    queries.push_back(q);
+  }
+  pcl::search::DelaunayWalk<pcl::PointXYZ> search;
+  search.setInputCloud(c);
+  pcl::Indices idx;
+  std::vector<float> d2;
+  for (dw::StartStrategy strategy : kStrategies) {
+    search.setStartStrategy(strategy);
+    for (std::size_t qi = 0; qi < queries.size(); ++qi) {
+      const Ref ref = bruteKnn(*c, queries[qi], 1);
+      ASSERT_EQ(search.nearestKSearch(queries[qi], 1, idx, d2), 1);
+      expectSameNeighbours(
+          *c, queries[qi], ref, idx, d2,
+          std::string("strategy ") + dw::toString(strategy) + " query " + std::to_string(qi));
+    }
+  }
 }
 
 TEST(DelaunayWalkExactness, IndicesSubset) {
