@@ -39,6 +39,8 @@ inline unsigned tableBits(std::size_t entries) {
 
 // The three positions other than f.
 constexpr unsigned kOtherThree[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+// The faces other than f, for f < 4; all four for f = 4 (the cavity search's first tetrahedron).
+constexpr unsigned kFacesBut[5][4] = {{1, 2, 3, 0}, {0, 2, 3, 0}, {0, 1, 3, 0}, {0, 1, 2, 0}, {0, 1, 2, 3}};
 
 // kForwardEdge[j][f] = {x, y}: face j (opposite vertex j) of a positively oriented tetrahedron, read
 // outward, is the cycle (f, x, y) for any f != j. Outward cycles: face 0 (1, 3, 2), face 1 (0, 2, 3),
@@ -661,22 +663,31 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
     for (index_t o : w.outside) mark[o] = Mark::kUnknown;
     for (index_t c : cavity) mark[c] = Mark::kUnknown;
   };
+  // Each cavity tetrahedron but the first was reached through one of its faces, whose neighbour is
+  // in the cavity: only the other three are visited (the parent's face, read and skipped, was the
+  // search's most mispredicted branch).
+  auto& entry = w.cavity_entry;
+  entry.clear();
   mark[t] = Mark::kCavity;
   cavity.push_back(t);
+  entry.push_back(4);
   for (std::size_t next = 0; next < cavity.size(); ++next) {
     const index_t c = cavity[next];
-    // The four neighbours are scattered over a structure far larger than the caches: start all
-    // their loads now so that the misses overlap instead of following one another.
+    const unsigned* const faces = kFacesBut[entry[next]];
+    const unsigned num_faces = entry[next] == 4 ? 4 : 3;
+    // The neighbours are scattered over a structure far larger than the caches: start all their
+    // loads now so that the misses overlap instead of following one another.
     std::uint32_t ncs[4];
-    for (unsigned f = 0; f < 4; ++f) {
-      ncs[f] = load<kShared>(tet_n[4 * std::size_t(c) + f]);
-      __builtin_prefetch(&tet_v[ncs[f] & ~3u]);
-      __builtin_prefetch(&mark[ncs[f] >> 2]);
+    for (unsigned i = 0; i < num_faces; ++i) {
+      ncs[i] = load<kShared>(tet_n[4 * std::size_t(c) + faces[i]]);
+      __builtin_prefetch(&tet_v[ncs[i] & ~3u]);
+      __builtin_prefetch(&mark[ncs[i] >> 2]);
     }
     index_t cv[4];
     for (unsigned j = 0; j < 4; ++j) cv[j] = load<kShared>(tet_v[4 * std::size_t(c) + j]);
-    for (unsigned f = 0; f < 4; ++f) {
-      const std::uint32_t nc = ncs[f];
+    for (unsigned i = 0; i < num_faces; ++i) {
+      const unsigned f = faces[i];
+      const std::uint32_t nc = ncs[i];
       const index_t n = nc >> 2;
       // n shares face f's three owned vertices with c: it is owned when its fourth vertex is.
       if (Owner::kShared && !own.ownsVertex(load<kShared>(tet_v[nc]))) {
@@ -695,6 +706,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
           if (inConflict(n, v, p)) {
             mark[n] = Mark::kCavity;
             cavity.push_back(n);
+            entry.push_back(static_cast<std::uint8_t>(nc & 3u));  // n's face towards c
             continue;
           }
           mark[n] = Mark::kOutside;

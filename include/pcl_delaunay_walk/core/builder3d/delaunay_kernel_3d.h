@@ -184,6 +184,7 @@ class DelaunayKernel3D {
   // Aligned to keep one thread's hot counters and vector headers off another's cache lines.
   struct alignas(128) Worker {
     std::vector<index_t> cavity, outside;
+    std::vector<std::uint8_t> cavity_entry;  // per cavity tetrahedron, the face it was reached through
     std::vector<BoundaryFace> boundary;
     std::vector<index_t> made;                  // the new tetrahedra, one per boundary face
     std::vector<index_t> boundary_vertices;     // their local numbering (linkNewTetrahedra)
