@@ -105,7 +105,7 @@ inline void orient3dFaces(const double q[4][3], const double* p, double out[4]) 
   const double m3 = m * m * m;
   const double bound = m3 > detail::kStaticMin ? detail::kO3dStatic * m3 : HUGE_VAL;
   for (int f = 0; f < 4; ++f) {
-    if (out[f] > bound || -out[f] > bound) continue;
+    if (std::fabs(out[f]) > bound) continue;  // one predictable branch: the sign is a coin flip
     const double* a = f == 0 ? p : q[0];
     const double* b = f == 1 ? p : q[1];
     const double* c = f == 2 ? p : q[2];
