@@ -157,7 +157,7 @@ double orient3dTail(const double* a, const double* b, const double* c, const dou
                            (std::fabs(cdxady) + std::fabs(adxcdy)) * std::fabs(bdz) +
                            (std::fabs(adxbdy) + std::fabs(bdxady)) * std::fabs(cdz);
   const double bound = kO3dBoundA * permanent;
-  if (det > bound || -det > bound) return det;
+  if (std::fabs(det) > bound) return det;
   return orient3dExact(a, b, c, d);
 }
 
@@ -193,7 +193,7 @@ double insphereTail(const double* a, const double* b, const double* c, const dou
                            ((aexbeyp * dezp + bexdeyp * aezp + dexaeyp * bezp) * clift +
                             (bexceyp * aezp + aexceyp * bezp + aexbeyp * cezp) * dlift);
   const double bound = kIspBoundA * permanent;
-  if (det > bound || -det > bound) return det;
+  if (std::fabs(det) > bound) return det;
   return insphereExact(a, b, c, d, e);
 }
 

@@ -50,7 +50,7 @@ inline int orient2d(double ax, double ay, double bx, double by, double cx, doubl
   constexpr double kEps = 1.1102230246251565e-16;  // 2^-53
   constexpr double kBound = (3.0 + 16.0 * kEps) * kEps;
   const double errbound = kBound * detsum;
-  if (det >= errbound || -det >= errbound) return det > 0.0 ? 1 : -1;
+  if (__builtin_fabs(det) >= errbound) return det > 0.0 ? 1 : -1;  // one branch, not one on the sign
   return orient2dExact(ax, ay, bx, by, cx, cy);
 }
 
@@ -73,7 +73,7 @@ inline int incircle(double ax, double ay, double bx, double by, double cx, doubl
   constexpr double kEps = 1.1102230246251565e-16;
   constexpr double kBound = (10.0 + 96.0 * kEps) * kEps;
   const double errbound = kBound * permanent;
-  if (det > errbound || -det > errbound) return det > 0.0 ? 1 : -1;
+  if (__builtin_fabs(det) > errbound) return det > 0.0 ? 1 : -1;  // one branch, not one on the sign
   return incircleExact(ax, ay, bx, by, cx, cy, dx, dy);
 }
 

@@ -62,7 +62,7 @@ inline double orient2d(const double* a, const double* b, const double* c) {
   const double detright = (a[1] - c[1]) * (b[0] - c[0]);
   const double det = detleft - detright;
   const double bound = detail::kO2dBoundA * (std::fabs(detleft) + std::fabs(detright));
-  if (det > bound || -det > bound) return det;
+  if (std::fabs(det) > bound) return det;
   return detail::orient2dExact(a, b, c);
 }
 
@@ -79,7 +79,7 @@ inline double orient3d(const double* a, const double* b, const double* c, const 
       detail::maxOf(detail::maxAbs(adx, ady, adz, bdx), detail::maxAbs(bdy, bdz, cdx, cdy)), std::fabs(cdz));
   const double m3 = m * m * m;
   const double sbound = detail::kO3dStatic * m3;
-  if (m3 > detail::kStaticMin && (det > sbound || -det > sbound)) return det;
+  if (m3 > detail::kStaticMin && std::fabs(det) > sbound) return det;
   return detail::orient3dTail(a, b, c, d);
 }
 
