@@ -646,31 +646,54 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
   // The cavity list doubles as the search's queue.
   auto& cavity = w.cavity;
   auto& boundary = w.boundary;
-  cavity.clear();
-  w.outside.clear();
-  boundary.clear();
   // The arrays through raw pointers in locals (none is resized during the search): through the
   // members, every push and mark store made the compiler reload their data pointers.
   const index_t* const tet_v = tet_v_.data();
   const std::uint32_t* const tet_n = tet_n_.data();
   Mark* const mark = mark_.data();
   std::uint64_t tests = 0;
-  auto clearMarks = [&] {
-    for (index_t o : w.outside) mark[o] = Mark::kUnknown;
-    for (index_t c : cavity) mark[c] = Mark::kUnknown;
+  // The search's four lists are filled through raw pointers with their own counts, and every
+  // neighbour is written to the list it may join, which then advances by a flag: whether a
+  // neighbour is in the cavity already, and whether it is in conflict, are coin flips for the branch
+  // predictor. The lists' element types are trivial and their allocator leaves resized storage
+  // unwritten, so sizing a list to its capacity costs nothing; room for four more entries is made
+  // before each tetrahedron's faces.
+  auto& outside = w.outside;
+  auto& entry = w.cavity_entry;  // per cavity tetrahedron, the face it was reached through
+  std::size_t num_cavity = 0, num_outside = 0, num_boundary = 0;
+  index_t *cav = nullptr, *out = nullptr;
+  std::uint8_t* ent = nullptr;
+  BoundaryFace* bnd = nullptr;
+  std::size_t room = 0;  // entries every list can take before the next makeRoom
+  auto makeRoom = [&](std::size_t extra) {
+    if (num_cavity + extra <= room && num_outside + extra <= room && num_boundary + extra <= room) return;
+    auto grow = [](auto& list, std::size_t needed) {
+      if (list.size() < needed) list.resize(std::max(list.capacity(), 2 * needed + 60));
+      if (list.size() < list.capacity()) list.resize(list.capacity());
+      return list.data();
+    };
+    const std::size_t needed = std::max({num_cavity, num_outside, num_boundary}) + extra;
+    cav = grow(cavity, needed);
+    ent = grow(entry, needed);
+    out = grow(outside, needed);
+    bnd = grow(boundary, needed);
+    room = std::min({cavity.size(), entry.size(), outside.size(), boundary.size()});
   };
-  // Each cavity tetrahedron but the first was reached through one of its faces, whose neighbour is
-  // in the cavity: only the other three are visited (the parent's face, read and skipped, was the
-  // search's most mispredicted branch).
-  auto& entry = w.cavity_entry;
-  entry.clear();
+  auto clearMarks = [&] {
+    for (std::size_t k = 0; k < num_outside; ++k) mark[out[k]] = Mark::kUnknown;
+    for (std::size_t k = 0; k < num_cavity; ++k) mark[cav[k]] = Mark::kUnknown;
+  };
+  makeRoom(4);
   mark[t] = Mark::kCavity;
-  cavity.push_back(t);
-  entry.push_back(4);
-  for (std::size_t next = 0; next < cavity.size(); ++next) {
-    const index_t c = cavity[next];
-    const unsigned* const faces = kFacesBut[entry[next]];
-    const unsigned num_faces = entry[next] == 4 ? 4 : 3;
+  cav[num_cavity] = t;
+  ent[num_cavity++] = 4;  // the first tetrahedron visits all four faces
+  // Each cavity tetrahedron but the first was reached through one of its faces, whose neighbour is
+  // in the cavity: only the other three are visited.
+  for (std::size_t next = 0; next < num_cavity; ++next) {
+    makeRoom(4);
+    const index_t c = cav[next];
+    const unsigned* const faces = kFacesBut[ent[next]];
+    const unsigned num_faces = ent[next] == 4 ? 4 : 3;
     // The neighbours are scattered over a structure far larger than the caches: start all their
     // loads now so that the misses overlap instead of following one another.
     std::uint32_t ncs[4];
@@ -685,6 +708,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
       const unsigned f = faces[i];
       const std::uint32_t nc = ncs[i];
       const index_t n = nc >> 2;
+      bool on_boundary;
       // n shares face f's three owned vertices with c: it is owned when its fourth vertex is.
       if (Owner::kShared && !own.ownsVertex(load<kShared>(tet_v[nc]))) {
         // Its vertices are stable: it shares this face with an owned tetrahedron, so nobody owns it.
@@ -694,27 +718,34 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
           w.stats.conflict_tests += tests;
           return false;
         }
+        on_boundary = true;
       } else {
         const Mark m = mark[n];
-        if (m == Mark::kCavity) continue;
+        bool in = false;
         if (m == Mark::kUnknown) {
           ++tests;
-          if (inConflict(n, v, p)) {
-            mark[n] = Mark::kCavity;
-            cavity.push_back(n);
-            entry.push_back(static_cast<std::uint8_t>(nc & 3u));  // n's face towards c
-            continue;
-          }
-          mark[n] = Mark::kOutside;
-          w.outside.push_back(n);
-          __builtin_prefetch(&tet_n[nc], 1);  // re-linked to a new tetrahedron below
+          in = inConflict(n, v, p);
+          mark[n] = in ? Mark::kCavity : Mark::kOutside;
+          cav[num_cavity] = n;
+          ent[num_cavity] = static_cast<std::uint8_t>(nc & 3u);  // n's face towards c
+          num_cavity += in;
+          out[num_outside] = n;
+          num_outside += !in;
+          __builtin_prefetch(&tet_n[nc], 1);  // re-linked to a new tetrahedron below, if outside
         }
+        on_boundary = (m == Mark::kOutside) | ((m == Mark::kUnknown) & !in);
       }
-      BoundaryFace bf{{cv[0], cv[1], cv[2], cv[3]}, nc, f};
+      BoundaryFace& bf = bnd[num_boundary];
+      for (unsigned j = 0; j < 4; ++j) bf.v[j] = cv[j];
       bf.v[f] = v;
-      boundary.push_back(bf);
+      bf.outer = nc;
+      bf.face = f;
+      num_boundary += on_boundary;
     }
   }
+  cavity.resize(num_cavity);
+  outside.resize(num_outside);
+  boundary.resize(num_boundary);
   w.stats.conflict_tests += tests;
   clearMarks();
   if constexpr (kShared) {

@@ -183,9 +183,10 @@ class DelaunayKernel3D {
   // and in a parallel pass its own recycled and fresh tetrahedron slots.
   // Aligned to keep one thread's hot counters and vector headers off another's cache lines.
   struct alignas(128) Worker {
-    std::vector<index_t> cavity, outside;
-    std::vector<std::uint8_t> cavity_entry;  // per cavity tetrahedron, the face it was reached through
-    std::vector<BoundaryFace> boundary;
+    // The cavity search's lists (insertCore fills them through raw pointers, sized to capacity).
+    SlotArray<index_t> cavity, outside;
+    SlotArray<std::uint8_t> cavity_entry;  // per cavity tetrahedron, the face it was reached through
+    SlotArray<BoundaryFace> boundary;
     std::vector<index_t> made;                  // the new tetrahedra, one per boundary face
     std::vector<index_t> boundary_vertices;     // their local numbering (linkNewTetrahedra)
     std::vector<std::uint32_t> corner_local;    // local numbers of each new tetrahedron's vertices
