@@ -146,54 +146,16 @@ double insphereExact(const double* a, const double* b, const double* c, const do
 }
 
 double orient3dTail(const double* a, const double* b, const double* c, const double* d) {
-  const double adx = a[0] - d[0], ady = a[1] - d[1], adz = a[2] - d[2];
-  const double bdx = b[0] - d[0], bdy = b[1] - d[1], bdz = b[2] - d[2];
-  const double cdx = c[0] - d[0], cdy = c[1] - d[1], cdz = c[2] - d[2];
-  const double bdxcdy = bdx * cdy, cdxbdy = cdx * bdy;
-  const double cdxady = cdx * ady, adxcdy = adx * cdy;
-  const double adxbdy = adx * bdy, bdxady = bdx * ady;
-  const double det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
-  const double permanent = (std::fabs(bdxcdy) + std::fabs(cdxbdy)) * std::fabs(adz) +
-                           (std::fabs(cdxady) + std::fabs(adxcdy)) * std::fabs(bdz) +
-                           (std::fabs(adxbdy) + std::fabs(bdxady)) * std::fabs(cdz);
-  const double bound = kO3dBoundA * permanent;
-  if (std::fabs(det) > bound) return det;
+  double unused, permanent;
+  const double det = orient3dDeterminant<true>(a, b, c, d, unused, permanent);
+  if (std::fabs(det) > kO3dBoundA * permanent) return det;
   return orient3dExact(a, b, c, d);
 }
 
 double insphereTail(const double* a, const double* b, const double* c, const double* d, const double* e) {
-  const double aex = a[0] - e[0], aey = a[1] - e[1], aez = a[2] - e[2];
-  const double bex = b[0] - e[0], bey = b[1] - e[1], bez = b[2] - e[2];
-  const double cex = c[0] - e[0], cey = c[1] - e[1], cez = c[2] - e[2];
-  const double dex = d[0] - e[0], dey = d[1] - e[1], dez = d[2] - e[2];
-  const double aexbey = aex * bey, bexaey = bex * aey, ab = aexbey - bexaey;
-  const double bexcey = bex * cey, cexbey = cex * bey, bc = bexcey - cexbey;
-  const double cexdey = cex * dey, dexcey = dex * cey, cd = cexdey - dexcey;
-  const double dexaey = dex * aey, aexdey = aex * dey, da = dexaey - aexdey;
-  const double aexcey = aex * cey, cexaey = cex * aey, ac = aexcey - cexaey;
-  const double bexdey = bex * dey, dexbey = dex * bey, bd = bexdey - dexbey;
-  const double abc = aez * bc - bez * ac + cez * ab;
-  const double bcd = bez * cd - cez * bd + dez * bc;
-  const double cda = cez * da + dez * ac + aez * cd;
-  const double dab = dez * ab + aez * bd + bez * da;
-  const double alift = aex * aex + aey * aey + aez * aez;
-  const double blift = bex * bex + bey * bey + bez * bez;
-  const double clift = cex * cex + cey * cey + cez * cez;
-  const double dlift = dex * dex + dey * dey + dez * dez;
-  const double det = (dlift * abc - clift * dab) + (blift * cda - alift * bcd);
-  const double aezp = std::fabs(aez), bezp = std::fabs(bez), cezp = std::fabs(cez), dezp = std::fabs(dez);
-  const double aexbeyp = std::fabs(aexbey) + std::fabs(bexaey);
-  const double bexceyp = std::fabs(bexcey) + std::fabs(cexbey);
-  const double cexdeyp = std::fabs(cexdey) + std::fabs(dexcey);
-  const double dexaeyp = std::fabs(dexaey) + std::fabs(aexdey);
-  const double aexceyp = std::fabs(aexcey) + std::fabs(cexaey);
-  const double bexdeyp = std::fabs(bexdey) + std::fabs(dexbey);
-  const double permanent = ((cexdeyp * bezp + bexdeyp * cezp + bexceyp * dezp) * alift +
-                            (dexaeyp * cezp + aexceyp * dezp + cexdeyp * aezp) * blift) +
-                           ((aexbeyp * dezp + bexdeyp * aezp + dexaeyp * bezp) * clift +
-                            (bexceyp * aezp + aexceyp * bezp + aexbeyp * cezp) * dlift);
-  const double bound = kIspBoundA * permanent;
-  if (std::fabs(det) > bound) return det;
+  double unused, permanent;
+  const double det = insphereDeterminant<true>(a, b, c, d, e, unused, permanent);
+  if (std::fabs(det) > kIspBoundA * permanent) return det;
   return insphereExact(a, b, c, d, e);
 }
 

@@ -156,12 +156,14 @@ bool WalkQuery::nearest(const float q[3], dw::StartStrategy strategy, dw::index_
   const dw::Vec3f u = ql - g.points[nn.vertex];
   const float dv = std::sqrt(nn.dist2);
   const float c_max = dv * (1.f + 0x1p-16f);
+  auto clears = [&](const dw::EdgeRecord& r, float c) {
+    return 4.f * r.m * (r.m - c) > 2.f * tol + 0x1p-17f * r.m * (r.m + dv);
+  };
   bool certain = true;
   for (dw::index_t e = g.offsets[nn.vertex]; e < g.offsets[nn.vertex + 1]; ++e) {
     const dw::EdgeRecord& r = g.edges[e];
-    if (4.f * r.m * (r.m - c_max) > 2.f * tol + 0x1p-17f * r.m * (r.m + dv)) break;
-    const float c = u.x * r.ex + u.y * r.ey + u.z * r.ez;
-    if (4.f * r.m * (r.m - c) > 2.f * tol + 0x1p-17f * r.m * (r.m + dv)) continue;
+    if (clears(r, c_max)) break;
+    if (clears(r, u.x * r.ex + u.y * r.ey + u.z * r.ez)) continue;
     if (!(dw::squaredDistance(ql, g.points[r.j]) > bound)) {
       certain = false;
       break;

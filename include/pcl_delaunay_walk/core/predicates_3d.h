@@ -24,8 +24,9 @@ double orient3dExact(const double* a, const double* b, const double* c, const do
 double insphereExact(const double* a, const double* b, const double* c, const double* d, const double* e);
 double orient2dExact(const double* a, const double* b, const double* c);
 /// What the inline filters leave: Shewchuk's stage-A bound on the permanent, then the exact value.
-/// Recomputes the determinant in the same arithmetic as the inline part, so the value returned when
-/// the bound decides is the very same double.
+/// They recompute the determinant through the same function as the inline part
+/// (orient3dDeterminant, insphereDeterminant), so the value returned when the bound decides is the
+/// very same double.
 double orient3dTail(const double* a, const double* b, const double* c, const double* d);
 double insphereTail(const double* a, const double* b, const double* c, const double* d, const double* e);
 
@@ -53,6 +54,69 @@ inline double maxOf(double a, double b) {
 inline double maxAbs(double a, double b, double c, double d) {
   return maxOf(maxOf(std::fabs(a), std::fabs(b)), maxOf(std::fabs(c), std::fabs(d)));
 }
+
+/// orient3d's determinant (see the convention below), the largest |coordinate difference| (for the
+/// semi-static filter) and, with kPermanent, Shewchuk's permanent of the same products (for stage A).
+/// One definition for the inline filter and the out-of-line tail: inlined with kPermanent false, the
+/// permanent's terms are never formed, so the fast path keeps everything in registers.
+template <bool kPermanent>
+[[gnu::always_inline]] inline double orient3dDeterminant(const double* a, const double* b, const double* c,
+                                                         const double* d, double& max_diff,
+                                                         double& permanent) {
+  const double adx = a[0] - d[0], ady = a[1] - d[1], adz = a[2] - d[2];
+  const double bdx = b[0] - d[0], bdy = b[1] - d[1], bdz = b[2] - d[2];
+  const double cdx = c[0] - d[0], cdy = c[1] - d[1], cdz = c[2] - d[2];
+  const double bdxcdy = bdx * cdy, cdxbdy = cdx * bdy;
+  const double cdxady = cdx * ady, adxcdy = adx * cdy;
+  const double adxbdy = adx * bdy, bdxady = bdx * ady;
+  max_diff = maxOf(maxOf(maxAbs(adx, ady, adz, bdx), maxAbs(bdy, bdz, cdx, cdy)), std::fabs(cdz));
+  if constexpr (kPermanent)
+    permanent = (std::fabs(bdxcdy) + std::fabs(cdxbdy)) * std::fabs(adz) +
+                (std::fabs(cdxady) + std::fabs(adxcdy)) * std::fabs(bdz) +
+                (std::fabs(adxbdy) + std::fabs(bdxady)) * std::fabs(cdz);
+  return adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
+}
+
+/// insphere's determinant, the largest lift |p - e|^2 (for the semi-static filter) and, with
+/// kPermanent, Shewchuk's permanent (for stage A); as orient3dDeterminant, one definition for both.
+template <bool kPermanent>
+[[gnu::always_inline]] inline double insphereDeterminant(const double* a, const double* b, const double* c,
+                                                         const double* d, const double* e, double& max_lift,
+                                                         double& permanent) {
+  const double aex = a[0] - e[0], aey = a[1] - e[1], aez = a[2] - e[2];
+  const double bex = b[0] - e[0], bey = b[1] - e[1], bez = b[2] - e[2];
+  const double cex = c[0] - e[0], cey = c[1] - e[1], cez = c[2] - e[2];
+  const double dex = d[0] - e[0], dey = d[1] - e[1], dez = d[2] - e[2];
+  const double aexbey = aex * bey, bexaey = bex * aey, ab = aexbey - bexaey;
+  const double bexcey = bex * cey, cexbey = cex * bey, bc = bexcey - cexbey;
+  const double cexdey = cex * dey, dexcey = dex * cey, cd = cexdey - dexcey;
+  const double dexaey = dex * aey, aexdey = aex * dey, da = dexaey - aexdey;
+  const double aexcey = aex * cey, cexaey = cex * aey, ac = aexcey - cexaey;
+  const double bexdey = bex * dey, dexbey = dex * bey, bd = bexdey - dexbey;
+  const double abc = aez * bc - bez * ac + cez * ab;
+  const double bcd = bez * cd - cez * bd + dez * bc;
+  const double cda = cez * da + dez * ac + aez * cd;
+  const double dab = dez * ab + aez * bd + bez * da;
+  const double alift = aex * aex + aey * aey + aez * aez;
+  const double blift = bex * bex + bey * bey + bez * bez;
+  const double clift = cex * cex + cey * cey + cez * cez;
+  const double dlift = dex * dex + dey * dey + dez * dez;
+  max_lift = maxOf(maxOf(alift, blift), maxOf(clift, dlift));
+  if constexpr (kPermanent) {
+    const double aezp = std::fabs(aez), bezp = std::fabs(bez), cezp = std::fabs(cez), dezp = std::fabs(dez);
+    const double aexbeyp = std::fabs(aexbey) + std::fabs(bexaey);
+    const double bexceyp = std::fabs(bexcey) + std::fabs(cexbey);
+    const double cexdeyp = std::fabs(cexdey) + std::fabs(dexcey);
+    const double dexaeyp = std::fabs(dexaey) + std::fabs(aexdey);
+    const double aexceyp = std::fabs(aexcey) + std::fabs(cexaey);
+    const double bexdeyp = std::fabs(bexdey) + std::fabs(dexbey);
+    permanent = ((cexdeyp * bezp + bexdeyp * cezp + bexceyp * dezp) * alift +
+                 (dexaeyp * cezp + aexceyp * dezp + cexdeyp * aezp) * blift) +
+                ((aexbeyp * dezp + bexdeyp * aezp + dexaeyp * bezp) * clift +
+                 (bexceyp * aezp + aexceyp * bezp + aexbeyp * cezp) * dlift);
+  }
+  return (dlift * abc - clift * dab) + (blift * cda - alift * bcd);
+}
 }  // namespace detail
 
 /// Sign-exact orient2d on (x, y): positive when a, b, c turn counter-clockwise. The returned value has
@@ -70,16 +134,10 @@ inline double orient2d(const double* a, const double* b, const double* c) {
 /// every call needs (the semi-static filter); the rest is out of line (detail::orient3dTail), so the
 /// fast path keeps its values in registers instead of spilling the permanent's terms.
 inline double orient3d(const double* a, const double* b, const double* c, const double* d) {
-  const double adx = a[0] - d[0], ady = a[1] - d[1], adz = a[2] - d[2];
-  const double bdx = b[0] - d[0], bdy = b[1] - d[1], bdz = b[2] - d[2];
-  const double cdx = c[0] - d[0], cdy = c[1] - d[1], cdz = c[2] - d[2];
-  const double det =
-      adz * (bdx * cdy - cdx * bdy) + bdz * (cdx * ady - adx * cdy) + cdz * (adx * bdy - bdx * ady);
-  const double m = detail::maxOf(
-      detail::maxOf(detail::maxAbs(adx, ady, adz, bdx), detail::maxAbs(bdy, bdz, cdx, cdy)), std::fabs(cdz));
+  double m, unused;
+  const double det = detail::orient3dDeterminant<false>(a, b, c, d, m, unused);
   const double m3 = m * m * m;
-  const double sbound = detail::kO3dStatic * m3;
-  if (m3 > detail::kStaticMin && std::fabs(det) > sbound) return det;
+  if (m3 > detail::kStaticMin && std::fabs(det) > detail::kO3dStatic * m3) return det;
   return detail::orient3dTail(a, b, c, d);
 }
 
@@ -120,27 +178,9 @@ inline void orient3dFaces(const double q[4][3], const double* p, double out[4]) 
 /// the permanent's bound, then the exact value. Split so that the fast path spills nothing (the
 /// Delaunay kernel runs ~43 of these per inserted point).
 inline double insphere(const double* a, const double* b, const double* c, const double* d, const double* e) {
-  const double aex = a[0] - e[0], aey = a[1] - e[1], aez = a[2] - e[2];
-  const double bex = b[0] - e[0], bey = b[1] - e[1], bez = b[2] - e[2];
-  const double cex = c[0] - e[0], cey = c[1] - e[1], cez = c[2] - e[2];
-  const double dex = d[0] - e[0], dey = d[1] - e[1], dez = d[2] - e[2];
-  const double ab = aex * bey - bex * aey;
-  const double bc = bex * cey - cex * bey;
-  const double cd = cex * dey - dex * cey;
-  const double da = dex * aey - aex * dey;
-  const double ac = aex * cey - cex * aey;
-  const double bd = bex * dey - dex * bey;
-  const double abc = aez * bc - bez * ac + cez * ab;
-  const double bcd = bez * cd - cez * bd + dez * bc;
-  const double cda = cez * da + dez * ac + aez * cd;
-  const double dab = dez * ab + aez * bd + bez * da;
-  const double alift = aex * aex + aey * aey + aez * aez;
-  const double blift = bex * bex + bey * bey + bez * bez;
-  const double clift = cex * cex + cey * cey + cez * cez;
-  const double dlift = dex * dex + dey * dey + dez * dez;
-  const double det = (dlift * abc - clift * dab) + (blift * cda - alift * bcd);
+  double l, unused;
+  const double det = detail::insphereDeterminant<false>(a, b, c, d, e, l, unused);
   // M^2 <= the largest lift (a sum of three squares), so det^2 > C^2 L^5 implies |det| > C M^5.
-  const double l = detail::maxOf(detail::maxOf(alift, blift), detail::maxOf(clift, dlift));
   const double l2 = l * l, l5 = l2 * l2 * l;
   if (l5 > detail::kStaticMinSq && det * det > detail::kIspStaticSq * l5) return det;
   return detail::insphereTail(a, b, c, d, e);
