@@ -9,8 +9,9 @@
 //           (-20..20 deg in roll, pitch, yaw), with and without noise on the target; per-run, per-iteration
 //           and per-step (NN / SVD / other) times
 //   accept  the acceptance ratios on one data set: out-of-the-box ICP vs ICP with the walk estimator
-//   scan2scan  the real LiDAR frame pair (scan-to-scan odometry): every structure built inside the
-//           timing, since each new scan is a new target (not in the default set)
+//   scan2scan  real LiDAR frame pairs (scan-to-scan odometry: fast_gicp's pair and two KITTI frames):
+//           every structure built inside the timing, since each new scan is a new target (not in the
+//           default set)
 // GCC 12 reports -Warray-bounds false positives inside Eigen's SSE loads of Vector3f when it inlines
 // PCL's SVD transformation estimation (the 16-byte load of a 12-byte vector is masked). GCC judges
 // the diagnostic by the state at the system header's location, so this must precede every include.
@@ -35,6 +36,7 @@
 
 #include "../bench/common/icp_estimators.h"
 #include "../bench/common/query_replay.h"
+#include "pcl_delaunay_walk/core/point_file.h"
 #include "pcl_delaunay_walk/registration/correspondence_estimation_delaunay_walk.h"
 #include "pcl_delaunay_walk/search/delaunay_walk.h"
 #include "pcl_delaunay_walk/search/kdtree_delaunay_walk.h"
@@ -550,80 +552,116 @@ Eigen::Matrix4d readTransform(const std::string& path) {
 /// A LiDAR frame without its no-return points: the sensor writes them at exactly (0, 0, 0) (about 5,000
 /// per frame here), and left in both frames they match each other at distance 0 and pin ICP to the
 /// identity (measured: 0.56 of the pair's 0.62 degrees left unrecovered).
+/// A LiDAR frame as PCL floats: PCD through PCL, KITTI .bin through the core reader. No-return points
+/// (exactly (0, 0, 0)) are dropped: they would match each other at distance 0 and pin ICP.
 Cloud::Ptr loadScan(const std::string& file) {
   const std::string path = dwb::findDataFile("scans", file);
-  Cloud raw;
-  if (pcl::io::loadPCDFile(path, raw) != 0) throw dw::Error("dw_bench: cannot read PCD '" + path + "'");
   std::vector<float> xyz;
-  for (const auto& p : raw.points)
-    if (p.x != 0.f || p.y != 0.f || p.z != 0.f) dwb::appendFinite(xyz, p.x, p.y, p.z);
+  if (file.size() > 4 && file.compare(file.size() - 4, 4, ".bin") == 0) {
+    const std::vector<double> raw = dw::readPointsXyz(path);
+    for (std::size_t i = 0; i + 2 < raw.size(); i += 3)
+      if (raw[i] != 0.0 || raw[i + 1] != 0.0 || raw[i + 2] != 0.0)
+        dwb::appendFinite(xyz, raw[i], raw[i + 1], raw[i + 2]);
+  } else {
+    Cloud raw;
+    if (pcl::io::loadPCDFile(path, raw) != 0) throw dw::Error("dw_bench: cannot read PCD '" + path + "'");
+    for (const auto& p : raw.points)
+      if (p.x != 0.f || p.y != 0.f || p.z != 0.f) dwb::appendFinite(xyz, p.x, p.y, p.z);
+  }
   return dwb::toCloud(xyz);
 }
 
-/// Scan-to-scan odometry on the real LiDAR pair: each new scan is a new target, so every structure is
-/// built inside the timing, and the walk's graph build (20-150x a k-d tree's) is paid on every frame.
+/// One scan-to-scan case: source registered onto target (target ~ T * source). Pairs without a
+/// reference transform are compared against the stock ICP's result instead (every variant searches
+/// exactly, so they should all land on the same pose).
+struct ScanPair {
+  const char* name;
+  const char* target;
+  const char* source;
+  const char* truth;  // nullptr: none shipped
+};
+
+/// Scan-to-scan odometry on real LiDAR frame pairs: each new scan is a new target, so every structure
+/// is built inside the timing, and the walk's graph build (20-150x a k-d tree's) is paid on every frame.
 /// Same ICP settings for all (max correspondence distance, iterations, epsilons); identity initial
-/// guess; the error is against the pair's reference transform.
+/// guess.
 void sectionScan2Scan(const Options& o, Csv& csv) {
-  const Cloud::Ptr target = loadScan("fastgicp_251370668.pcd");
-  const Cloud::Ptr source = loadScan("fastgicp_251371071.pcd");
-  const Eigen::Matrix4d truth = readTransform(dwb::findDataFile("scans", "fastgicp_relative.txt"));
-  std::vector<float> target_xyz;
-  for (const auto& p : target->points) target_xyz.insert(target_xyz.end(), {p.x, p.y, p.z});
-  std::cout << "== scan-to-scan: LiDAR pair, source " << source->size() << " -> target " << target->size()
-            << " points, max correspondence distance " << o.scan_max_distance << " m\n";
+  const ScanPair pairs[] = {
+      {"fastgicp", "fastgicp_251370668.pcd", "fastgicp_251371071.pcd", "fastgicp_relative.txt"},
+      {"kitti", "kitti_000000.bin", "kitti_000001.bin", nullptr},
+  };
   using CE = pcl::registration::CorrespondenceEstimationDelaunayWalk<PointT, PointT, float>;
   const std::vector<std::string> variants = {"stock-icp-kdtree", "icp-nanoflann", "icp-walk-pnn-optimized",
                                              "icp-walk-estimator"};
-  for (const auto& v : variants) {
-    if (v == "icp-nanoflann" && !dwb::makeMethod("nanoflann")) continue;
-    double best_cpu = 1e300, best_build = 0, best_wall = 0, rot_err = 0, trans_err = 0;
-    int iterations = 0;
-    bool converged = false;
-    for (int r = 0; r < o.repeats; ++r) {
-      pcl::IterativeClosestPoint<PointT, PointT, float> icp;
-      dwb::configureIcp(icp, o.max_iterations);
-      icp.setMaxCorrespondenceDistance(o.scan_max_distance);
-      dwb::IterationClock clock;
-      const auto t0 = dwb::Clock::now();
-      const double c0 = dwb::processCpuSeconds();
-      double build = 0;
-      std::shared_ptr<CE> walk_ce;
-      if (v == "stock-icp-kdtree") {
-        // What a PCL user runs today: align() builds its FLANN tree itself.
-        icp.setCorrespondenceEstimation(std::make_shared<dwb::TimedStockCorrespondenceEstimation>(&clock));
-      } else if (v == "icp-walk-estimator") {
-        auto walk = std::make_shared<pcl::search::DelaunayWalk<PointT>>();
-        walk->setInputCloud(target);
-        build = dwb::processCpuSeconds() - c0;
-        walk_ce = std::make_shared<CE>(walk);
-        walk_ce->setNumberOfThreads(1);
-        icp.setCorrespondenceEstimation(walk_ce);
-        icp.setSearchMethodTarget(std::make_shared<pcl::search::KdTreeDelaunayWalk<PointT>>(walk), true);
-      } else {
-        std::shared_ptr<dwb::NnMethod> m =
-            dwb::makeMethod(v == "icp-nanoflann" ? "nanoflann" : "walk-pnn-optimized");
-        m->build(target_xyz);
-        build = dwb::processCpuSeconds() - c0;
-        icp.setCorrespondenceEstimation(std::make_shared<dwb::MethodCorrespondenceEstimation>(m, &clock, 1));
-        icp.setSearchMethodTarget(std::make_shared<pcl::search::KdTree<PointT>>(), true);
+  for (const ScanPair& pair : pairs) {
+    const Cloud::Ptr target = loadScan(pair.target);
+    const Cloud::Ptr source = loadScan(pair.source);
+    Eigen::Matrix4d reference = Eigen::Matrix4d::Identity();
+    bool have_reference = pair.truth != nullptr;
+    if (have_reference) reference = readTransform(dwb::findDataFile("scans", pair.truth));
+    std::vector<float> target_xyz;
+    for (const auto& p : target->points) target_xyz.insert(target_xyz.end(), {p.x, p.y, p.z});
+    std::cout << "== scan-to-scan " << pair.name << ": source " << source->size() << " -> target "
+              << target->size() << " points, max correspondence distance " << o.scan_max_distance
+              << " m, error against " << (have_reference ? "the reference transform" : "the stock ICP's pose")
+              << "\n";
+    for (const auto& v : variants) {
+      if (v == "icp-nanoflann" && !dwb::makeMethod("nanoflann")) continue;
+      double best_cpu = 1e300, best_build = 0, best_wall = 0;
+      Eigen::Matrix4d best_pose = Eigen::Matrix4d::Identity();
+      int iterations = 0;
+      bool converged = false;
+      for (int r = 0; r < o.repeats; ++r) {
+        pcl::IterativeClosestPoint<PointT, PointT, float> icp;
+        dwb::configureIcp(icp, o.max_iterations);
+        icp.setMaxCorrespondenceDistance(o.scan_max_distance);
+        dwb::IterationClock clock;
+        const auto t0 = dwb::Clock::now();
+        const double c0 = dwb::processCpuSeconds();
+        double build = 0;
+        std::shared_ptr<CE> walk_ce;
+        if (v == "stock-icp-kdtree") {
+          // What a PCL user runs today: align() builds its FLANN tree itself.
+          icp.setCorrespondenceEstimation(std::make_shared<dwb::TimedStockCorrespondenceEstimation>(&clock));
+        } else if (v == "icp-walk-estimator") {
+          auto walk = std::make_shared<pcl::search::DelaunayWalk<PointT>>();
+          walk->setInputCloud(target);
+          build = dwb::processCpuSeconds() - c0;
+          walk_ce = std::make_shared<CE>(walk);
+          walk_ce->setNumberOfThreads(1);
+          icp.setCorrespondenceEstimation(walk_ce);
+          icp.setSearchMethodTarget(std::make_shared<pcl::search::KdTreeDelaunayWalk<PointT>>(walk), true);
+        } else {
+          std::shared_ptr<dwb::NnMethod> m =
+              dwb::makeMethod(v == "icp-nanoflann" ? "nanoflann" : "walk-pnn-optimized");
+          m->build(target_xyz);
+          build = dwb::processCpuSeconds() - c0;
+          icp.setCorrespondenceEstimation(
+              std::make_shared<dwb::MethodCorrespondenceEstimation>(m, &clock, 1));
+          icp.setSearchMethodTarget(std::make_shared<pcl::search::KdTree<PointT>>(), true);
+        }
+        icp.setInputSource(source);
+        icp.setInputTarget(target);
+        Cloud out;
+        icp.align(out);
+        const double cpu = dwb::processCpuSeconds() - c0;
+        if (cpu < best_cpu) {
+          best_cpu = cpu, best_build = build, best_wall = dwb::secondsSince(t0);
+          converged = icp.hasConverged();
+          iterations = walk_ce ? int(walk_ce->getStatistics().size()) : int(clock.iterations());
+          best_pose = icp.getFinalTransformation().cast<double>();
+        }
       }
-      icp.setInputSource(source);
-      icp.setInputTarget(target);
-      Cloud out;
-      icp.align(out);
-      const double cpu = dwb::processCpuSeconds() - c0;
-      if (cpu < best_cpu) {
-        best_cpu = cpu, best_build = build, best_wall = dwb::secondsSince(t0);
-        converged = icp.hasConverged();
-        iterations = walk_ce ? int(walk_ce->getStatistics().size()) : int(clock.iterations());
-        dwb::poseError(truth, icp.getFinalTransformation().cast<double>(), rot_err, trans_err);
-      }
+      if (!have_reference && v == "stock-icp-kdtree") reference = best_pose;  // the others are compared to it
+      double rot_err = 0, trans_err = 0;
+      dwb::poseError(reference, best_pose, rot_err, trans_err);
+      csv.row(pair.name, have_reference ? "reference" : "stock", v, source->size(), target->size(),
+              o.scan_max_distance, iterations, converged ? 1 : 0, best_cpu, best_build, best_wall, rot_err,
+              trans_err);
+      std::cout << "  " << v << ": " << best_cpu * 1e3 << " ms CPU incl. build (build " << best_build * 1e3
+                << " ms), " << iterations << " iterations, rot err " << rot_err << " deg, trans err "
+                << trans_err << " m\n";
     }
-    csv.row(v, source->size(), target->size(), o.scan_max_distance, iterations, converged ? 1 : 0, best_cpu,
-            best_build, best_wall, rot_err, trans_err);
-    std::cout << "  " << v << ": " << best_cpu * 1e3 << " ms CPU incl. build (build " << best_build * 1e3
-              << " ms), rot err " << rot_err << " deg, trans err " << trans_err << " m\n";
   }
 }
 
@@ -693,8 +731,8 @@ int main(int argc, char** argv) {
     }
     if (o.sections.count("scan2scan")) {
       Csv scan_csv(o.out + "/scan2scan.csv",
-                   "variant,source_points,target_points,max_distance,iterations,converged,cpu_seconds,"
-                   "build_cpu_seconds,wall_seconds,rot_err_deg,trans_err");
+                   "pair,error_against,variant,source_points,target_points,max_distance,iterations,converged,"
+                   "cpu_seconds,build_cpu_seconds,wall_seconds,rot_err_deg,trans_err");
       sectionScan2Scan(o, scan_csv);
     }
     std::cout << "results in " << o.out << "/\n";

@@ -182,6 +182,7 @@ DelaunayGraph buildDelaunayGraph(const PointView& view, const BuildOptions& opti
   g.dimension = affineDimension(g.points, basis);
   const std::size_t nv = g.points.size();
   EdgeList edges;
+  bool distinct = false;  // the incremental builder lists each edge once
   if (nv <= kCompleteGraphMax) {
     edges = completeGraph(nv);
   } else if (g.dimension == 1) {
@@ -194,8 +195,12 @@ DelaunayGraph buildDelaunayGraph(const PointView& view, const BuildOptions& opti
     if (b == BuilderType::Auto) b = haveIncrementalBuilder() ? BuilderType::Incremental : BuilderType::Qhull;
     report(options, "delaunay-3d", 0.0);
     try {
-      edges = b == BuilderType::Incremental ? incrementalDelaunayEdges(g.points, options)
-                                            : qhullDelaunayEdges(g.points, 3, nullptr);
+      if (b == BuilderType::Incremental) {
+        edges = incrementalDelaunayEdges(g.points, options);
+        distinct = true;
+      } else {
+        edges = qhullDelaunayEdges(g.points, 3, nullptr);
+      }
     } catch (const Error&) {
       // Nearly flat sets (a tilted plane rounded to float) can defeat a 3D builder; within 1e-6 of the
       // extent the planar graph errs by less than float resolution on the query distances.
@@ -205,7 +210,7 @@ DelaunayGraph buildDelaunayGraph(const PointView& view, const BuildOptions& opti
     }
   }
   report(options, "assemble", 0.0);
-  assembleEdges(g, std::move(edges));
+  assembleEdges(g, std::move(edges), distinct);
   report(options, "assemble", 1.0);
   return g;
 }

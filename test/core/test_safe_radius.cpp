@@ -2,7 +2,9 @@
 // stopping test (edge_scan.h). Both must leave every answer exact.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
+#include <random>
 
 #include "brute_force.h"
 #include "pcl_delaunay_walk/core/edge_scan.h"
@@ -51,6 +53,38 @@ TEST(Graph, NeighbourhoodsAreShortestFirstAndOldOrderIsRepaired) {
   sortNeighbourhoods(old);
   EXPECT_NO_THROW(old.validate());
   EXPECT_EQ(0, std::memcmp(old.edges.data(), g->edges.data(), g->edges.size() * sizeof(EdgeRecord)));
+}
+
+TEST(Graph, DistinctEdgeListsSkipTheSortButAreChecked) {
+  // The same edges, once listed with repeats and reversed pairs (any builder may) and once distinct
+  // and shuffled (the incremental builder's promise): the same records either way.
+  const auto g = graphOf(dw_test::uniformCube(400, 53));
+  std::vector<std::pair<index_t, index_t>> distinct, repeated;
+  for (index_t v = 0; v < g->numVertices(); ++v)
+    for (index_t e = g->offsets[v]; e < g->offsets[v + 1]; ++e) {
+      const index_t j = g->edges[e].j;
+      repeated.emplace_back(v, j);  // every edge twice, once per orientation
+      if (v < j) distinct.emplace_back((v + j) % 2 ? v : j, (v + j) % 2 ? j : v);
+    }
+  std::mt19937 rng(5);
+  std::shuffle(distinct.begin(), distinct.end(), rng);
+  DelaunayGraph a, b;
+  a.points = b.points = g->points;
+  assembleEdges(a, repeated);
+  assembleEdges(b, distinct, true);
+  ASSERT_EQ(a.offsets, b.offsets);
+  ASSERT_EQ(a.edges.size(), g->edges.size());
+  EXPECT_EQ(0, std::memcmp(a.edges.data(), b.edges.data(), a.edges.size() * sizeof(EdgeRecord)));
+  EXPECT_EQ(a.safe_radius2, b.safe_radius2);
+  // A broken promise is an error, not a graph with a doubled edge: repeated as is, and reversed.
+  for (const bool reversed : {false, true}) {
+    auto bad = distinct;
+    const auto e = bad[bad.size() / 2];
+    bad.push_back(reversed ? std::make_pair(e.second, e.first) : e);
+    DelaunayGraph c;
+    c.points = g->points;
+    EXPECT_THROW(assembleEdges(c, bad, true), Error) << reversed;
+  }
 }
 
 TEST(SafeRadius, TooLargeARadiusFailsValidation) {

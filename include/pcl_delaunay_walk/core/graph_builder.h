@@ -46,7 +46,7 @@ EdgeList qhullDelaunayEdges(const std::vector<Vec3f>& points, int dim, const dou
 bool haveQhullBuilder();
 bool haveIncrementalBuilder();
 
-/// Delaunay edges of distinct points in 3D by the incremental kernel (issue: 3D builder). Defined by
+/// Delaunay edges of distinct points in 3D by the incremental kernel (issue: 3D builder), each edge once.
 /// the incremental builder's translation unit; throws dw::Error when that builder is not compiled in.
 EdgeList incrementalDelaunayEdges(const std::vector<Vec3f>& points, const BuildOptions& options);
 
