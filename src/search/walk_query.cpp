@@ -44,22 +44,23 @@ WalkQuery::WalkQuery(dw::DelaunayGraph::ConstPtr graph, std::vector<float> xyz,
     throw dw::Error("pcl::search::DelaunayWalk: index map size does not match the graph");
   num_finite_ = graph->originals.size();
   const std::size_t nv = graph->numVertices();
-  vertex_xyz_.resize(3 * nv);
-  vertex_cloud_.resize(nv);
-  vertex_mixed_.assign(nv, 0);
+  vertex_.resize(nv);
   for (std::size_t v = 0; v < nv; ++v) {
     const dw::index_t first = graph->originals[graph->originals_offsets[v]];
     const float* p0 = &xyz_[3 * static_cast<std::size_t>(first)];
-    std::copy(p0, p0 + 3, &vertex_xyz_[3 * v]);
-    std::int32_t lowest = cloudIndex(first);
+    VertexRecord& r = vertex_[v];
+    std::copy(p0, p0 + 3, r.xyz);
+    r.cloud = cloudIndex(first);
     for (dw::index_t o = graph->originals_offsets[v] + 1; o < graph->originals_offsets[v + 1]; ++o) {
       const dw::index_t in = graph->originals[o];
       const float* p = &xyz_[3 * static_cast<std::size_t>(in)];
       // Value equality: +0 and -0 (common in no-return points) give FLANN the same distance bits.
-      if (p[0] != p0[0] || p[1] != p0[1] || p[2] != p0[2]) vertex_mixed_[v] = 1;
-      lowest = std::min(lowest, cloudIndex(in));
+      if (p[0] != p0[0] || p[1] != p0[1] || p[2] != p0[2]) {
+        r.cloud = kMixed;
+        break;
+      }
+      r.cloud = std::min(r.cloud, cloudIndex(in));
     }
-    vertex_cloud_[v] = lowest;
   }
   for (const dw::Vec3f& p : graph->points)
     extent_ = std::max({extent_, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
@@ -133,9 +134,9 @@ bool WalkQuery::nearest(const float q[3], dw::StartStrategy strategy, dw::index_
   if (!locate(q, strategy, hint, ql, qe, nn, stats)) return false;
   const dw::DelaunayGraph& g = search_->graph();
   // All originals of the nearest vertex share its local distance; pick among them in the caller metric.
-  WalkNeighbour best{distance(q, &vertex_xyz_[3 * static_cast<std::size_t>(nn.vertex)]),
-                     vertex_cloud_[nn.vertex]};
-  if (vertex_mixed_[nn.vertex]) {
+  const VertexRecord& vr = vertex_[nn.vertex];
+  WalkNeighbour best{distance(q, vr.xyz), vr.cloud};
+  if (vr.cloud == kMixed) {
     best.index = -1;
     for (dw::index_t o = g.originals_offsets[nn.vertex]; o < g.originals_offsets[nn.vertex + 1]; ++o) {
       const WalkNeighbour c{callerDistance(q, g.originals[o]), cloudIndex(g.originals[o])};
@@ -159,8 +160,15 @@ bool WalkQuery::nearest(const float q[3], dw::StartStrategy strategy, dw::index_
   auto clears = [&](const dw::EdgeRecord& r, float c) {
     return 4.f * r.m * (r.m - c) > 2.f * tol + 0x1p-17f * r.m * (r.m + dv);
   };
+  // First of all the vertex's safe ball, which the walk has just read: its radius is below every
+  // edge's half-length, and the test only gets easier as m grows past c, so if it clears with m = the
+  // radius it clears every edge, and the edge records are not read at all (late in ICP the walk stopped
+  // inside that ball without reading them either).
+  const float ball = g.safe_radius2.empty() ? 0.f : std::sqrt(g.safe_radius2[nn.vertex]);
+  const bool in_ball =
+      ball > c_max && 4.f * ball * (ball - c_max) > 2.f * tol + 0x1p-17f * ball * (ball + dv);
   bool certain = true;
-  for (dw::index_t e = g.offsets[nn.vertex]; e < g.offsets[nn.vertex + 1]; ++e) {
+  for (dw::index_t e = g.offsets[nn.vertex]; !in_ball && e < g.offsets[nn.vertex + 1]; ++e) {
     const dw::EdgeRecord& r = g.edges[e];
     if (clears(r, c_max)) break;
     if (clears(r, u.x * r.ex + u.y * r.ey + u.z * r.ez)) continue;

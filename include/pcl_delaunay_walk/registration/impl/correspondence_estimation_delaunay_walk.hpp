@@ -99,8 +99,11 @@ void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::sea
     PointSource as_source;
     constexpr std::size_t kAhead = 6;  // queries between a start-vertex prefetch and its walk
     for (std::size_t k = begin; k < end; ++k) {
-      if (use_hints && k + kAhead < end)
-        wq.neighbourSearch().prefetchStart(hints_[(*indices_)[order[k + kAhead]]]);
+      if (use_hints && k + kAhead < end) {
+        const auto ahead = (*indices_)[order[k + kAhead]];
+        wq.prefetchStart(hints_[ahead]);
+        __builtin_prefetch(&(*input_)[ahead]);  // in graph order, source reads scatter
+      }
       const std::size_t i = use_hints ? order[k] : k;
       const auto idx = (*indices_)[i];
       const PointSource& p = (*input_)[idx];
