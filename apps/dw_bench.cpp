@@ -36,7 +36,6 @@
 
 #include "../bench/common/icp_estimators.h"
 #include "../bench/common/query_replay.h"
-#include "pcl_delaunay_walk/core/point_file.h"
 #include "pcl_delaunay_walk/registration/correspondence_estimation_delaunay_walk.h"
 #include "pcl_delaunay_walk/search/delaunay_walk.h"
 #include "pcl_delaunay_walk/search/kdtree_delaunay_walk.h"
@@ -555,19 +554,11 @@ Eigen::Matrix4d readTransform(const std::string& path) {
 /// A LiDAR frame as PCL floats: PCD through PCL, KITTI .bin through the core reader. No-return points
 /// (exactly (0, 0, 0)) are dropped: they would match each other at distance 0 and pin ICP.
 Cloud::Ptr loadScan(const std::string& file) {
-  const std::string path = dwb::findDataFile("scans", file);
+  const std::vector<float> all = dwb::loadFiniteXyz(dwb::findDataFile("scans", file));
   std::vector<float> xyz;
-  if (file.size() > 4 && file.compare(file.size() - 4, 4, ".bin") == 0) {
-    const std::vector<double> raw = dw::readPointsXyz(path);
-    for (std::size_t i = 0; i + 2 < raw.size(); i += 3)
-      if (raw[i] != 0.0 || raw[i + 1] != 0.0 || raw[i + 2] != 0.0)
-        dwb::appendFinite(xyz, raw[i], raw[i + 1], raw[i + 2]);
-  } else {
-    Cloud raw;
-    if (pcl::io::loadPCDFile(path, raw) != 0) throw dw::Error("dw_bench: cannot read PCD '" + path + "'");
-    for (const auto& p : raw.points)
-      if (p.x != 0.f || p.y != 0.f || p.z != 0.f) dwb::appendFinite(xyz, p.x, p.y, p.z);
-  }
+  xyz.reserve(all.size());
+  for (std::size_t i = 0; i + 2 < all.size(); i += 3)
+    if (all[i] != 0.f || all[i + 1] != 0.f || all[i + 2] != 0.f) xyz.insert(xyz.end(), &all[i], &all[i] + 3);
   return dwb::toCloud(xyz);
 }
 

@@ -125,6 +125,22 @@ inline void appendFinite(std::vector<float>& xyz, double x, double y, double z) 
     xyz.insert(xyz.end(), {static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)});
 }
 
+/// The finite points of a file as floats: PCD through PCL, PLY and KITTI .bin through the core reader.
+inline std::vector<float> loadFiniteXyz(const std::string& path) {
+  std::vector<float> xyz;
+  if (path.size() > 4 && path.compare(path.size() - 4, 4, ".pcd") == 0) {
+    pcl::PointCloud<pcl::PointXYZ> cloud;
+    if (pcl::io::loadPCDFile(path, cloud) != 0) throw dw::Error("dw_bench: cannot read PCD '" + path + "'");
+    xyz.reserve(cloud.size() * 3);
+    for (const auto& p : cloud.points) appendFinite(xyz, p.x, p.y, p.z);
+  } else {
+    const std::vector<double> raw = dw::readPointsXyz(path);
+    xyz.reserve(raw.size());
+    for (std::size_t i = 0; i + 2 < raw.size(); i += 3) appendFinite(xyz, raw[i], raw[i + 1], raw[i + 2]);
+  }
+  return xyz;
+}
+
 /// Loads a data set by protocol name; throws dw::Error for an unknown name or a missing file.
 inline Dataset loadDataset(const std::string& full_name) {
   std::string name = full_name;
@@ -161,16 +177,7 @@ inline Dataset loadDataset(const std::string& full_name) {
   const std::string file = e->file;
   if (file.size() > 3 && file.compare(file.size() - 3, 3, ".gz") == 0) path = gunzipToCache(path);
   d.source = path;
-  if (file.size() > 4 && file.compare(file.size() - 4, 4, ".pcd") == 0) {
-    pcl::PointCloud<pcl::PointXYZ> cloud;
-    if (pcl::io::loadPCDFile(path, cloud) != 0) throw dw::Error("dw_bench: cannot read PCD '" + path + "'");
-    d.xyz.reserve(cloud.size() * 3);
-    for (const auto& p : cloud.points) appendFinite(d.xyz, p.x, p.y, p.z);
-  } else {
-    const std::vector<double> raw = dw::readPointsXyz(path);
-    d.xyz.reserve(raw.size());
-    for (std::size_t i = 0; i + 2 < raw.size(); i += 3) appendFinite(d.xyz, raw[i], raw[i + 1], raw[i + 2]);
-  }
+  d.xyz = loadFiniteXyz(path);
   if (stride > 1) {
     std::vector<float> kept;
     kept.reserve(d.xyz.size() / stride + 3);

@@ -157,21 +157,18 @@ bool WalkQuery::nearest(const float q[3], dw::StartStrategy strategy, dw::index_
   const dw::Vec3f u = ql - g.points[nn.vertex];
   const float dv = std::sqrt(nn.dist2);
   const float c_max = dv * (1.f + 0x1p-16f);
-  auto clears = [&](const dw::EdgeRecord& r, float c) {
-    return 4.f * r.m * (r.m - c) > 2.f * tol + 0x1p-17f * r.m * (r.m + dv);
-  };
+  auto clears = [&](float m, float c) { return 4.f * m * (m - c) > 2.f * tol + 0x1p-17f * m * (m + dv); };
   // First of all the vertex's safe ball, which the walk has just read: its radius is below every
   // edge's half-length, and the test only gets easier as m grows past c, so if it clears with m = the
   // radius it clears every edge, and the edge records are not read at all (late in ICP the walk stopped
   // inside that ball without reading them either).
   const float ball = g.safe_radius2.empty() ? 0.f : std::sqrt(g.safe_radius2[nn.vertex]);
-  const bool in_ball =
-      ball > c_max && 4.f * ball * (ball - c_max) > 2.f * tol + 0x1p-17f * ball * (ball + dv);
+  const bool in_ball = ball > c_max && clears(ball, c_max);
   bool certain = true;
   for (dw::index_t e = g.offsets[nn.vertex]; !in_ball && e < g.offsets[nn.vertex + 1]; ++e) {
     const dw::EdgeRecord& r = g.edges[e];
-    if (clears(r, c_max)) break;
-    if (clears(r, u.x * r.ex + u.y * r.ey + u.z * r.ez)) continue;
+    if (clears(r.m, c_max)) break;
+    if (clears(r.m, u.x * r.ex + u.y * r.ey + u.z * r.ez)) continue;
     if (!(dw::squaredDistance(ql, g.points[r.j]) > bound)) {
       certain = false;
       break;

@@ -1242,10 +1242,9 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const SlotArray<inde
   auto work = [&](std::size_t part, std::size_t parts) {
     std::vector<std::uint32_t> bucket_offset, fill;
     std::vector<index_t> bucket;
-    // Repeats of b under one a are dropped through a small open-addressing set tagged with a (an
-    // entry of another a reads as empty): its size follows a's occurrences, not the point count, so
-    // threads need no per-point stamp array (4 bytes per point per thread).
-    // Entries are (a << 32) | b; an entry of another a reads as empty.
+    // Repeats of b under one a are dropped through a small open-addressing set of entries
+    // (a << 32) | b, in which an entry of another a reads as empty: its size follows a's occurrences,
+    // not the point count, so threads need no per-point stamp array (4 bytes per point per thread).
     std::vector<std::uint64_t> seen;
     for (std::size_t r = part; r < num_ranges; r += parts) {
       const std::size_t lo = rangeStart(r), hi = rangeStart(r + 1);
