@@ -5,6 +5,8 @@
 #include <cstring>
 #include <numeric>
 
+#include "parallel_sort.h"
+#include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/space_filling_curve.h"
 #include "pcl_delaunay_walk/core/vec3d.h"
 
@@ -140,27 +142,36 @@ DelaunayGraph buildDelaunayGraph(const PointView& view, const BuildOptions& opti
   double scale = 0;
   for (int a = 0; a < 3; ++a) scale = std::max(scale, hi[a] - lo[a]);
   const double cell = scale > 0 ? double((1u << 21) - 1) / scale : 0.0;
-  for (std::size_t k = 0; k < finite.size(); ++k) {
-    const auto p = view[finite[k]];
-    Item& it = items[k];
-    it.p = g.toLocal(p[0], p[1], p[2]);
-    it.input = finite[k];
-    // The key comes from the float position, so inputs that round to one float position (and so
-    // collapse below) get equal keys and end up adjacent in the sort.
-    const double fp[3] = {double(it.p.x) + g.origin[0], double(it.p.y) + g.origin[1],
-                          double(it.p.z) + g.origin[2]};
-    auto q = [&](int a) {
-      return static_cast<std::uint32_t>(std::clamp((fp[a] - lo[a]) * cell, 0.0, double((1u << 21) - 1)));
-    };
-    it.key = mortonKey(q(0), q(1), q(2));
-  }
-  std::sort(items.begin(), items.end(), [](const Item& a, const Item& b) {
-    if (a.key != b.key) return a.key < b.key;
-    if (a.p.x != b.p.x) return a.p.x < b.p.x;
-    if (a.p.y != b.p.y) return a.p.y < b.p.y;
-    if (a.p.z != b.p.z) return a.p.z < b.p.z;
-    return a.input < b.input;
-  });
+  const unsigned threads = resolveThreads(options.num_threads);
+  parallelFor(finite.size(), workerCount(finite.size(), threads, std::size_t(1) << 16),
+              [&](std::size_t b, std::size_t e, unsigned) {
+                for (std::size_t k = b; k < e; ++k) {
+                  const auto p = view[finite[k]];
+                  Item& it = items[k];
+                  it.p = g.toLocal(p[0], p[1], p[2]);
+                  it.input = finite[k];
+                  // The key comes from the float position, so inputs that round to one float position
+                  // (and so collapse below) get equal keys and end up adjacent in the sort.
+                  const double fp[3] = {double(it.p.x) + g.origin[0], double(it.p.y) + g.origin[1],
+                                        double(it.p.z) + g.origin[2]};
+                  auto q = [&](int a) {
+                    return static_cast<std::uint32_t>(
+                        std::clamp((fp[a] - lo[a]) * cell, 0.0, double((1u << 21) - 1)));
+                  };
+                  it.key = mortonKey(q(0), q(1), q(2));
+                }
+              });
+  // The order is total (the input index breaks the last ties): the same for every thread count.
+  detail::parallelSort(
+      items,
+      [](const Item& a, const Item& b) {
+        if (a.key != b.key) return a.key < b.key;
+        if (a.p.x != b.p.x) return a.p.x < b.p.x;
+        if (a.p.y != b.p.y) return a.p.y < b.p.y;
+        if (a.p.z != b.p.z) return a.p.z < b.p.z;
+        return a.input < b.input;
+      },
+      threads);
   g.points.reserve(items.size());
   g.originals.reserve(items.size());
   for (std::size_t k = 0; k < items.size(); ++k) {
@@ -174,8 +185,7 @@ DelaunayGraph buildDelaunayGraph(const PointView& view, const BuildOptions& opti
     g.input_to_vertex[items[k].input] = static_cast<index_t>(g.points.size() - 1);
   }
   g.originals_offsets.push_back(static_cast<index_t>(g.originals.size()));
-  items.clear();
-  items.shrink_to_fit();
+  detail::freeScratch(items);
   report(options, "prepare", 1.0);
 
   double basis[6] = {0, 0, 0, 0, 0, 0};
@@ -210,7 +220,7 @@ DelaunayGraph buildDelaunayGraph(const PointView& view, const BuildOptions& opti
     }
   }
   report(options, "assemble", 0.0);
-  assembleEdges(g, std::move(edges), distinct);
+  assembleEdges(g, std::move(edges), distinct, options.num_threads);
   report(options, "assemble", 1.0);
   return g;
 }

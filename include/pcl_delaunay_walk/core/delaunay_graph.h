@@ -64,9 +64,10 @@ struct DelaunayGraph {
 /// Builds the CSR records from an undirected edge list over `points` (pairs i != j, any order,
 /// duplicates allowed). Used by every builder so that the layout is defined in one place.
 /// Fills safe_radius2 too. With `distinct` the caller promises that no pair repeats (in either
-/// orientation): the list is then not sorted, and a repeat found anyway throws dw::Error.
+/// orientation): the list is then not sorted, and a repeat found anyway throws dw::Error. Runs on
+/// `num_threads` threads (0: hardware concurrency); the graph is the same for any count.
 void assembleEdges(DelaunayGraph& graph, std::vector<std::pair<index_t, index_t>> undirected_edges,
-                   bool distinct = false);
+                   bool distinct = false, unsigned num_threads = 1);
 
 /// Puts every neighbourhood in the documented order (shortest edge first), sorting only those that
 /// are not: graph files written before this order existed load into the same invariants. O(E) when

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include "../page_memory.h"
+#include "../parallel_sort.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/space_filling_curve.h"
 
@@ -100,28 +102,7 @@ std::vector<index_t> brioOrderInRounds(const std::vector<Vec3f>& points, std::ve
       kv[k] = {(round << 59) | (morton >> 4), i};
     }
   });
-  // Sorted in `workers` slices at once, then merged pairwise, the merges of a level at once.
-  parallelFor(workers, workers, [&](std::size_t b, std::size_t e, unsigned) {
-    for (std::size_t c = b; c < e; ++c)
-      std::sort(kv.begin() + n * c / workers, kv.begin() + n * (c + 1) / workers);
-  });
-  if (workers > 1) {
-    std::vector<KeyId> tmp(n);
-    for (std::size_t width = 1; width < workers; width *= 2) {
-      const std::size_t pairs = (workers + 2 * width - 1) / (2 * width);
-      parallelFor(pairs, static_cast<unsigned>(pairs), [&](std::size_t b, std::size_t e, unsigned) {
-        for (std::size_t q = b; q < e; ++q) {
-          const std::size_t c0 = 2 * width * q, c1 = std::min<std::size_t>(c0 + width, workers),
-                            c2 = std::min<std::size_t>(c0 + 2 * width, workers);
-          const std::size_t lo_i = n * c0 / workers, mid = n * c1 / workers, hi_i = n * c2 / workers;
-          std::merge(kv.begin() + lo_i, kv.begin() + mid, kv.begin() + mid, kv.begin() + hi_i,
-                     tmp.begin() + lo_i);
-        }
-      });
-      kv.swap(tmp);
-    }
-    detail::freeScratch(tmp);
-  }
+  detail::parallelSort(kv, std::less<KeyId>(), num_threads);
   for (std::size_t k = 0; k < n; ++k) {
     order[k] = kv[k].id;
     if (k == 0 || (kv[k].key >> 59) != (kv[k - 1].key >> 59)) round_begin.push_back(k);

@@ -1,0 +1,46 @@
+/// \file parallel_sort.h
+/// \brief Sorting a big vector on several threads (internal; the builders' Morton and BRIO orders).
+///
+/// Slices are sorted at once, then merged pairwise, the merges of one level at once. Simple, and
+/// enough for the few threads that an O(n log n) sort ahead of an O(n) build needs: the order must
+/// be a strict weak ordering whose ties are fully broken (ids), so that the result is one and the
+/// same sequence for every thread count.
+#pragma once
+
+#include <algorithm>
+#include <cstddef>
+#include <vector>
+
+#include "page_memory.h"
+#include "pcl_delaunay_walk/core/parallel_for.h"
+
+namespace dw {
+namespace detail {
+
+template <class T, class A, class Less>
+void parallelSort(std::vector<T, A>& v, Less less, unsigned num_threads) {
+  const std::size_t n = v.size();
+  const unsigned workers = workerCount(n, num_threads, std::size_t(1) << 16);
+  parallelFor(workers, workers, [&](std::size_t b, std::size_t e, unsigned) {
+    for (std::size_t c = b; c < e; ++c)
+      std::sort(v.begin() + n * c / workers, v.begin() + n * (c + 1) / workers, less);
+  });
+  if (workers <= 1) return;
+  std::vector<T, A> tmp(n);
+  for (std::size_t width = 1; width < workers; width *= 2) {
+    const std::size_t pairs = (workers + 2 * width - 1) / (2 * width);
+    parallelFor(pairs, static_cast<unsigned>(pairs), [&](std::size_t b, std::size_t e, unsigned) {
+      for (std::size_t q = b; q < e; ++q) {
+        const std::size_t c0 = 2 * width * q, c1 = std::min<std::size_t>(c0 + width, workers),
+                          c2 = std::min<std::size_t>(c0 + 2 * width, workers);
+        const std::size_t lo = n * c0 / workers, mid = n * c1 / workers, hi = n * c2 / workers;
+        std::merge(v.begin() + lo, v.begin() + mid, v.begin() + mid, v.begin() + hi, tmp.begin() + lo, less);
+      }
+    });
+    v.swap(tmp);
+  }
+  freeScratch(tmp);
+}
+
+}  // namespace detail
+}  // namespace dw

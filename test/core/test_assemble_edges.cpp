@@ -1,0 +1,70 @@
+// assembleEdges on several threads: the records, offsets and safe radii are the same bytes as on one
+// thread, whatever the list's order, and a repeated edge is still found. The cloud is big enough
+// (40k points, ~300k edges) that the list and the vertices are really split among the workers.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <random>
+
+#include "brute_force.h"
+#include "pcl_delaunay_walk/core/graph_builder.h"
+
+using namespace dw;
+
+namespace {
+
+void expectSameGraph(const DelaunayGraph& a, const DelaunayGraph& b, const std::string& what) {
+  ASSERT_EQ(a.offsets, b.offsets) << what;
+  ASSERT_EQ(a.edges.size(), b.edges.size()) << what;
+  EXPECT_EQ(0, std::memcmp(a.edges.data(), b.edges.data(), a.edges.size() * sizeof(EdgeRecord))) << what;
+  EXPECT_EQ(a.safe_radius2, b.safe_radius2) << what;
+}
+
+TEST(AssembleEdges, SameGraphOnAnyThreadCount) {
+  const std::vector<double> xyz = dw_test::uniformCube(40000, 61);
+  const DelaunayGraph built = buildDelaunayGraph(PointView::fromDouble(xyz.data(), xyz.size() / 3));
+  built.validate();
+  std::vector<std::pair<index_t, index_t>> distinct, repeated;
+  for (index_t v = 0; v < built.numVertices(); ++v)
+    for (index_t e = built.offsets[v]; e < built.offsets[v + 1]; ++e) {
+      const index_t j = built.edges[e].j;
+      repeated.emplace_back(j, v);  // every edge twice, once per orientation
+      if (v < j) distinct.emplace_back((v + j) % 2 ? v : j, (v + j) % 2 ? j : v);
+    }
+  std::mt19937 rng(9);
+  std::shuffle(distinct.begin(), distinct.end(), rng);
+  ASSERT_GT(distinct.size(), std::size_t(4) << 16);  // several list workers
+
+  DelaunayGraph one;
+  one.points = built.points;
+  assembleEdges(one, distinct, true, 1);
+  expectSameGraph(built, one, "one thread");
+  for (const unsigned threads : {2u, 3u, 8u}) {
+    DelaunayGraph g;
+    g.points = built.points;
+    assembleEdges(g, distinct, true, threads);
+    expectSameGraph(one, g, "distinct list, threads " + std::to_string(threads));
+    DelaunayGraph r;
+    r.points = built.points;
+    assembleEdges(r, repeated, false, threads);
+    expectSameGraph(one, r, "repeated list, threads " + std::to_string(threads));
+  }
+
+  // A broken promise of distinct edges is found by whichever worker holds the vertex.
+  for (const std::size_t at : {std::size_t(0), distinct.size() / 2, distinct.size() - 1}) {
+    auto bad = distinct;
+    bad.push_back({bad[at].second, bad[at].first});
+    DelaunayGraph c;
+    c.points = built.points;
+    EXPECT_THROW(assembleEdges(c, bad, true, 4), Error) << at;
+  }
+  // An edge to a missing vertex, in any worker's block.
+  auto missing = distinct;
+  missing[missing.size() - 3].second = static_cast<index_t>(built.numVertices());
+  DelaunayGraph d;
+  d.points = built.points;
+  EXPECT_THROW(assembleEdges(d, missing, true, 4), Error);
+}
+
+}  // namespace
