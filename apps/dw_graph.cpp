@@ -112,16 +112,18 @@ int main(int argc, char** argv) {
     std::printf("input        %s\npoints       %zu (loaded in %.3f s)\n", input.c_str(), cloud.size(),
                 load_s);
     // Progress on large inputs only: a line per stage and per 10%, on stderr so stdout stays parseable.
-    if (!quiet && cloud.size() >= 200000) {
-      options.progress = [last = std::string(), tenth = -1](const std::string& stage, double f) mutable {
-        const int t = static_cast<int>(f * 10);
-        if (stage != last || t != tenth) {
-          std::fprintf(stderr, "  [%s] %3d%%\n", stage.c_str(), t * 10);
-          last = stage;
-          tenth = t;
-        }
-      };
-    }
+    // Each stage's time runs from its first report to the next stage's (the last: to the end).
+    const bool print_progress = !quiet && cloud.size() >= 200000;
+    std::vector<std::pair<std::string, Clock::time_point>> stages;
+    options.progress = [&, last = std::string(), tenth = -1](const std::string& stage, double f) mutable {
+      if (stages.empty() || stages.back().first != stage) stages.emplace_back(stage, Clock::now());
+      const int t = static_cast<int>(f * 10);
+      if (print_progress && (stage != last || t != tenth)) {
+        std::fprintf(stderr, "  [%s] %3d%%\n", stage.c_str(), t * 10);
+        last = stage;
+        tenth = t;
+      }
+    };
     const auto t_build = Clock::now();
     const dw::DelaunayGraph g =
         cloud.empty()
@@ -129,6 +131,7 @@ int main(int argc, char** argv) {
             : dw::buildDelaunayGraph(
                   dw::PointView::fromFloat(&cloud[0].x, cloud.size(), sizeof(pcl::PointXYZ)), options);
     const double build_s = since(t_build);
+    const auto t_built = Clock::now();
     const auto t_save = Clock::now();
     dw::saveGraph(g, output);
     const double save_s = since(t_save);
@@ -154,6 +157,13 @@ int main(int argc, char** argv) {
     std::printf("memory       %.1f MiB (%.0f B/point)\n", g.memoryBytes() / 1048576.0,
                 cloud.empty() ? 0.0 : double(g.memoryBytes()) / double(cloud.size()));
     std::printf("build time   %.3f s (%.0f points/s)\n", build_s, build_s > 0 ? cloud.size() / build_s : 0.0);
+    std::printf("stages      ");
+    for (std::size_t k = 0; k < stages.size(); ++k) {
+      const auto end = k + 1 < stages.size() ? stages[k + 1].second : t_built;
+      std::printf("%s %s %.3f s", k ? "," : "", stages[k].first.c_str(),
+                  std::chrono::duration<double>(end - stages[k].second).count());
+    }
+    std::printf("\n");
     std::printf("saved        %s in %.3f s\n", output.c_str(), save_s);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dw_graph: error: %s\n", e.what());

@@ -110,17 +110,40 @@ DelaunayGraph buildDelaunayGraph(const PointView& view, const BuildOptions& opti
   const std::size_t n = view.size;
   g.input_to_vertex.assign(n, kInvalidIndex);
   report(options, "prepare", 0.0);
+  // Every step of the preparation runs on the build's threads, in blocks whose results are joined in
+  // block order, so the graph is the same for any thread count.
+  const unsigned threads = resolveThreads(options.num_threads);
+  const unsigned input_workers = workerCount(n, threads, std::size_t(1) << 16);
 
   // Origin: centre of the finite points' bounding box, in double. Centring is what keeps Qhull correct
   // on georeferenced input, and float storage precise (DESIGN.md §2).
   double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
   std::vector<index_t> finite;
-  finite.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto p = view[i];
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
-    finite.push_back(static_cast<index_t>(i));
-    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
+  {
+    struct Block {
+      std::vector<index_t> finite;
+      double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    };
+    std::vector<Block> blocks(input_workers);
+    parallelFor(n, input_workers, [&](std::size_t b, std::size_t e, unsigned w) {
+      Block& block = blocks[w];
+      block.finite.reserve(e - b);
+      for (std::size_t i = b; i < e; ++i) {
+        const auto p = view[i];
+        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
+        block.finite.push_back(static_cast<index_t>(i));
+        for (int a = 0; a < 3; ++a)
+          block.lo[a] = std::min(block.lo[a], p[a]), block.hi[a] = std::max(block.hi[a], p[a]);
+      }
+    });
+    std::size_t count = 0;
+    for (const Block& block : blocks) count += block.finite.size();
+    finite.reserve(count);
+    for (Block& block : blocks) {
+      finite.insert(finite.end(), block.finite.begin(), block.finite.end());
+      detail::freeScratch(block.finite);
+      for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], block.lo[a]), hi[a] = std::max(hi[a], block.hi[a]);
+    }
   }
   if (finite.empty()) return g;
   for (int a = 0; a < 3; ++a) {
@@ -142,7 +165,6 @@ DelaunayGraph buildDelaunayGraph(const PointView& view, const BuildOptions& opti
   double scale = 0;
   for (int a = 0; a < 3; ++a) scale = std::max(scale, hi[a] - lo[a]);
   const double cell = scale > 0 ? double((1u << 21) - 1) / scale : 0.0;
-  const unsigned threads = resolveThreads(options.num_threads);
   parallelFor(finite.size(), workerCount(finite.size(), threads, std::size_t(1) << 16),
               [&](std::size_t b, std::size_t e, unsigned) {
                 for (std::size_t k = b; k < e; ++k) {
@@ -172,19 +194,39 @@ DelaunayGraph buildDelaunayGraph(const PointView& view, const BuildOptions& opti
         return a.input < b.input;
       },
       threads);
-  g.points.reserve(items.size());
-  g.originals.reserve(items.size());
-  for (std::size_t k = 0; k < items.size(); ++k) {
-    const bool dup = k > 0 && items[k].p.x == items[k - 1].p.x && items[k].p.y == items[k - 1].p.y &&
-                     items[k].p.z == items[k - 1].p.z;
-    if (!dup) {
-      if (!g.points.empty()) g.originals_offsets.push_back(static_cast<index_t>(g.originals.size()));
-      g.points.push_back(items[k].p);
+  // Exact repeats are adjacent now: each run of equal positions is one vertex, which keeps the run's
+  // input indices (ascending) as its originals. Per block: count the vertices that start there; then,
+  // from each block's first vertex number, write the vertices, originals and maps.
+  const std::size_t m = items.size();
+  auto startsVertex = [&](std::size_t k) {
+    return k == 0 || items[k].p.x != items[k - 1].p.x || items[k].p.y != items[k - 1].p.y ||
+           items[k].p.z != items[k - 1].p.z;
+  };
+  const unsigned item_workers = workerCount(m, threads, std::size_t(1) << 16);
+  std::vector<std::size_t> first_vertex(item_workers + 1, 0);
+  parallelFor(m, item_workers, [&](std::size_t b, std::size_t e, unsigned w) {
+    std::size_t starts = 0;
+    for (std::size_t k = b; k < e; ++k) starts += startsVertex(k);
+    first_vertex[w + 1] = starts;
+  });
+  for (unsigned w = 0; w < item_workers; ++w) first_vertex[w + 1] += first_vertex[w];
+  const std::size_t num_vertices = first_vertex[item_workers];
+  g.points.resize(num_vertices);
+  g.originals.resize(m);
+  g.originals_offsets.resize(num_vertices + 1);
+  g.originals_offsets[num_vertices] = static_cast<index_t>(m);
+  parallelFor(m, item_workers, [&](std::size_t b, std::size_t e, unsigned w) {
+    std::size_t v = first_vertex[w];  // the number of the next vertex to start
+    for (std::size_t k = b; k < e; ++k) {
+      if (startsVertex(k)) {
+        g.points[v] = items[k].p;
+        g.originals_offsets[v] = static_cast<index_t>(k);
+        ++v;
+      }
+      g.originals[k] = items[k].input;
+      g.input_to_vertex[items[k].input] = static_cast<index_t>(v - 1);
     }
-    g.originals.push_back(items[k].input);
-    g.input_to_vertex[items[k].input] = static_cast<index_t>(g.points.size() - 1);
-  }
-  g.originals_offsets.push_back(static_cast<index_t>(g.originals.size()));
+  });
   detail::freeScratch(items);
   report(options, "prepare", 1.0);
 

@@ -35,7 +35,7 @@ EdgeList incrementalDelaunayEdges(const std::vector<Vec3f>& points, const BuildO
     kernel.setPoints(points.data(), points.size());
     {
       std::function<void(double)> progress;
-      if (options.progress) progress = [&](double f) { options.progress("delaunay3d", f); };
+      if (options.progress) progress = [&](double f) { options.progress("delaunay-3d", f); };
       std::vector<std::size_t> rounds;
       std::vector<index_t> order = builder3d::brioOrder(points, rounds, 0, threads);
       kernel.build(std::move(order), progress, rounds, threads);  // freed before the last round
