@@ -1108,16 +1108,35 @@ std::vector<std::pair<index_t, index_t>> DelaunayKernel3D::edgesFrom(std::size_t
   return joinChunks(extractEdges(tet_v_, num_points_, 1, first, last));
 }
 
-std::vector<std::pair<index_t, index_t>> DelaunayKernel3D::joinChunks(EdgeChunks&& chunks) {
+std::vector<std::pair<index_t, index_t>> DelaunayKernel3D::joinChunks(EdgeChunks&& chunks,
+                                                                      unsigned num_threads) {
   if (chunks.size() == 1) return std::move(chunks[0]);
-  std::size_t total = 0;
-  for (const auto& c : chunks) total += c.size();
+  std::vector<std::size_t> at(chunks.size() + 1, 0);
+  for (std::size_t c = 0; c < chunks.size(); ++c) at[c + 1] = at[c] + chunks[c].size();
+  const std::size_t total = at.back();
   std::vector<std::pair<index_t, index_t>> out;
   out.reserve(total);
-  for (auto& c : chunks) {
-    out.insert(out.end(), c.begin(), c.end());
-    detail::freeScratch(c);
+  const unsigned workers = workerCount(total, num_threads, std::size_t(1) << 18);
+  if (workers <= 1) {
+    // Appended chunk by chunk, each freed once copied: the peak holds the list and one chunk.
+    for (auto& c : chunks) {
+      out.insert(out.end(), c.begin(), c.end());
+      detail::freeScratch(c);
+    }
+    return out;
   }
+  // On several threads: the list's pages are mapped on all of them (resize would fault them in on
+  // this one), then each chunk is copied to its place and freed. The peak then holds the list and
+  // the chunks, 16 bytes per edge, still below the insertion's.
+  const std::size_t bytes = total * sizeof(out[0]), slices = detail::pageSlices(bytes, 4 * workers);
+  parallelFor(slices, workers, [&](std::size_t b, std::size_t e, unsigned) {
+    for (std::size_t k = b; k < e; ++k) detail::prefaultSlice(out.data(), bytes, k, slices);
+  });
+  out.resize(total);
+  parallelForDynamic(chunks.size(), workers, [&](std::size_t c) {
+    std::copy(chunks[c].begin(), chunks[c].end(), out.begin() + at[c]);
+    detail::freeScratch(chunks[c]);
+  });
   return out;
 }
 

@@ -99,9 +99,10 @@ class DelaunayKernel3D {
   /// empty (built() is false).
   EdgeChunks releaseIntoEdgeChunks(unsigned num_threads);
 
-  /// The chunks' edges in one list, in order; each chunk's pages go back to the system once copied,
-  /// so the resident peak is one copy of the edges plus one chunk.
-  static std::vector<std::pair<index_t, index_t>> joinChunks(EdgeChunks&& chunks);
+  /// The chunks' edges in one list, in order, copied on `num_threads` threads; each chunk's pages go
+  /// back to the system once copied. On one thread the resident peak is one copy of the edges plus
+  /// one chunk; on several, two copies of the edges (still below the insertion's peak).
+  static std::vector<std::pair<index_t, index_t>> joinChunks(EdgeChunks&& chunks, unsigned num_threads = 1);
 
   /// The edges (a, b), a < b, of the triangulation whose smaller endpoint a is in [first, last), each
   /// once: what one block of the parallel builder owns.
