@@ -169,16 +169,8 @@ void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> un
   // about half of the one-thread assembly (0.29 of 0.6 s at 1M points).
   const std::size_t total = g.offsets[n];
   const unsigned vertex_workers = workerCount(n, threads, std::size_t(1) << 14);
+  // Sized unwritten: its pages are mapped by the threads that write the records, below.
   g.edges.clear();
-  g.edges.reserve(total);
-  {
-    // Mapped on all threads before the (single-threaded) zero fill of resize: ~16 page faults a vertex.
-    const std::size_t slices = detail::pageSlices(total * sizeof(EdgeRecord), 4 * vertex_workers);
-    parallelFor(slices, vertex_workers, [&](std::size_t b, std::size_t e, unsigned) {
-      for (std::size_t k = b; k < e; ++k)
-        detail::prefaultSlice(g.edges.data(), total * sizeof(EdgeRecord), k, slices);
-    });
-  }
   g.edges.resize(total);
   g.safe_radius2.assign(n, 0.f);
   // Per worker, the first repeated edge found (kInvalidIndex: none).

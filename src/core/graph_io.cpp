@@ -56,14 +56,14 @@ std::uint64_t mulAdd(std::uint64_t a, std::uint64_t b, std::uint64_t acc) {
   return acc + a * b;
 }
 
-template <typename T>
-void appendArray(std::vector<std::uint8_t>& out, const std::vector<T>& v) {
+template <typename T, typename A>
+void appendArray(std::vector<std::uint8_t>& out, const std::vector<T, A>& v) {
   const auto* p = reinterpret_cast<const std::uint8_t*>(v.data());
   out.insert(out.end(), p, p + v.size() * sizeof(T));
 }
 
-template <typename T>
-void readArray(const std::uint8_t*& p, std::vector<T>& v, std::uint64_t count) {
+template <typename T, typename A>
+void readArray(const std::uint8_t*& p, std::vector<T, A>& v, std::uint64_t count) {
   v.resize(count);
   if (count != 0) std::memcpy(v.data(), p, count * sizeof(T));  // memcpy(nullptr, ., 0) is UB
   p += count * sizeof(T);

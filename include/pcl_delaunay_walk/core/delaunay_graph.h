@@ -7,8 +7,12 @@
 #include <vector>
 
 #include "pcl_delaunay_walk/core/types.h"
+#include "pcl_delaunay_walk/core/uninitialised_allocator.h"
 
 namespace dw {
+
+/// The records' container: a std::vector whose resize(n) leaves new records unwritten.
+using EdgeRecords = std::vector<EdgeRecord, UninitialisedAllocator<EdgeRecord>>;
 
 /// The Delaunay graph of a reference cloud, laid out for the walk.
 ///
@@ -33,7 +37,10 @@ struct DelaunayGraph {
   int dimension = 0;
   std::vector<Vec3f> points;
   std::vector<index_t> offsets{0};
-  std::vector<EdgeRecord> edges;
+  /// All directed edges, vertex by vertex (offsets). Its allocator leaves resized storage unwritten:
+  /// the assembly writes every record on all threads, and a zero fill before that, on one thread, was
+  /// 0.21 s of a 4M-point build's 0.8 s assembly on 16 device threads.
+  EdgeRecords edges;
   std::vector<index_t> input_to_vertex;
   std::vector<index_t> originals_offsets{0};
   std::vector<index_t> originals;
