@@ -33,12 +33,14 @@ void usage() {
   std::fprintf(
       stderr,
       "usage: dw_delaunay3d_scaling (-n POINTS | --file CLOUD) [--threads 1,2,...] [--repeats R]\n"
-      "                             [--validate]\n"
+      "                             [--validate] [--independent] [--max-bytes-per-point B]\n"
       "  POINTS accepts suffixes k and M (uniform in a cube, seed 42). CLOUD: PCD or PLY.\n"
       "  Times are the minimum over the repeats; speed-ups are against the first thread count.\n"
       "  --validate: check the whole triangulation (slow) after each build.\n"
       "  --independent: also the ceiling of any partitioned scheme: T threads each triangulate their\n"
-      "  own 1/T of the points (Morton ranges) in separate kernels, nothing shared (not a graph).\n");
+      "  own 1/T of the points (Morton ranges) in separate kernels, nothing shared (not a graph).\n"
+      "  --max-bytes-per-point B: exit with status 3 when a build's peak (B/point) exceeds B (a memory\n"
+      "  check for CI; the first build in the process is the one measured on a fresh heap).\n");
 }
 
 double seconds(std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
@@ -49,6 +51,7 @@ struct Run {
   double order_s = 1e30, insert_s = 1e30, parallel_s = 0, busy_max = 0, busy_sum = 0, edges_s = 1e30,
          total_s = 1e30, assemble_s = 1e30;
   double shared = 0, deferred = 0, bytes_per_point = 0;
+  double walk = 0, tests = 0, created = 0;  // per point: walk steps, conflict tests, tetrahedra made
   std::uint64_t checksum = 0;
   std::size_t edges = 0;
 };
@@ -80,6 +83,9 @@ Run buildOnce(const std::vector<dw::Vec3f>& pts, unsigned threads, bool validate
   r.total_s = r.order_s + r.insert_s + r.edges_s;
   r.shared = double(stats.parallel_inserted) / pts.size();
   r.deferred = double(stats.deferred) / pts.size();
+  r.walk = double(stats.walk_steps) / pts.size();
+  r.tests = double(stats.conflict_tests) / pts.size();
+  r.created = double(stats.created_tets) / pts.size();
   for (const auto& c : chunks)
     for (const auto& e : c) {
       ++r.edges;
@@ -123,6 +129,7 @@ int main(int argc, char** argv) {
     std::vector<unsigned> threads{1, 2};
     int repeats = 1;
     bool validate = false, independent = false;
+    double max_bytes_per_point = 0;  // 0: no check
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
       auto next = [&]() -> std::string {
@@ -142,6 +149,8 @@ int main(int argc, char** argv) {
         validate = true;
       } else if (a == "--independent") {
         independent = true;
+      } else if (a == "--max-bytes-per-point") {
+        max_bytes_per_point = static_cast<double>(dw_apps::parseCount(next(), "bytes per point"));
       } else {
         usage();
         return a == "-h" || a == "--help" ? 0 : 2;
@@ -170,14 +179,16 @@ int main(int argc, char** argv) {
     std::printf("%zu distinct points (%s)\n", pts.size(), file.empty() ? "uniform cube" : file.c_str());
     std::printf(
         "threads  total_s  speedup  order_s  insert_s  parallel_s  busy_max  busy_sum  shared  deferred  "
-        "edges_s  B/point  M pt/s  assemble_s  checksum\n");
+        "edges_s  B/point  M pt/s  assemble_s  walk/pt  tests/pt  made/pt  checksum\n");
     double first = 0;
     std::uint64_t checksum = 0;
     bool same = true;
+    double worst_bytes_per_point = 0;
     for (unsigned t : threads) {
       Run best;
       for (int k = 0; k < repeats; ++k) {
         const Run r = buildOnce(pts, t, validate);
+        worst_bytes_per_point = std::max(worst_bytes_per_point, r.bytes_per_point);
         if (r.total_s < best.total_s) best = r;
       }
       if (first == 0) {
@@ -187,10 +198,11 @@ int main(int argc, char** argv) {
       same = same && best.checksum == checksum;
       std::printf(
           "%7u  %7.3f  %6.2fx  %7.3f  %8.3f  %10.3f  %8.3f  %8.3f  %6.3f  %8.3f  %7.3f  %7.0f  %6.3f  "
-          "%10.3f  %016llx\n",
+          "%10.3f  %7.2f  %8.2f  %7.2f  %016llx\n",
           t, best.total_s, first / best.total_s, best.order_s, best.insert_s, best.parallel_s, best.busy_max,
           best.busy_sum, best.shared, best.deferred, best.edges_s, best.bytes_per_point,
-          pts.size() / best.total_s / 1e6, best.assemble_s, static_cast<unsigned long long>(best.checksum));
+          pts.size() / best.total_s / 1e6, best.assemble_s, best.walk, best.tests, best.created,
+          static_cast<unsigned long long>(best.checksum));
       std::fflush(stdout);
     }
     if (independent) {
@@ -205,7 +217,13 @@ int main(int argc, char** argv) {
     }
     std::printf("%s edge set (%s) for every thread count\n", same ? "same" : "DIFFERENT",
                 same ? "checksums equal" : "checksums differ");
-    return same ? 0 : 1;
+    if (!same) return 1;
+    if (max_bytes_per_point > 0 && worst_bytes_per_point > max_bytes_per_point) {
+      std::printf("peak memory %.1f bytes per point exceeds the limit of %.0f\n", worst_bytes_per_point,
+                  max_bytes_per_point);
+      return 3;
+    }
+    return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dw_delaunay3d_scaling: %s\n", e.what());
     return 1;

@@ -321,9 +321,12 @@ struct DelaunayKernel3D::CellSplit {
 // A thread of a parallel pass owns the vertices in its cell, and the tetrahedra whose four vertices
 // it owns; the infinite vertex counts as everybody's. Only the owner changes a tetrahedron's vertices.
 // A thread writes a neighbour code only across a face whose vertices it owns, and two faces of one
-// tetrahedron always share a finite vertex, so every such code has one writer. Shared arrays are read
-// and written with relaxed atomics: plain moves on x86, but defined behaviour (and TSan-clean) where
-// a thread reads a foreign tetrahedron's vertices while its owner rewrites them.
+// tetrahedron always share a finite vertex, so every such code has one writer. A thread reads only
+// tetrahedra it owns or that nobody owns (all share an owned face with one it owns), which nobody else
+// writes, so those reads are plain; so are all neighbour codes, since no thread reads another's. The
+// exceptions are a walk's start, a tetrahedron found through vertex_tet_ (ownsTet, startAtVertex),
+// which may be another thread's: those reads, and every write of a vertex slot or of vertex_tet_ that
+// they may meet, are relaxed atomics (plain moves on x86, but defined behaviour and TSan-clean).
 struct DelaunayKernel3D::Cell {
   static constexpr bool kShared = true;
   const CellSplit* split = nullptr;
@@ -423,7 +426,7 @@ index_t DelaunayKernel3D::walkTo(const double* p, index_t t, Worker& w, const Ow
       // A start on the hull: go to the finite side first (and test the way back like any face: the
       // point may lie beyond this very facet).
       const std::uint32_t nc = tet_n_[4 * std::size_t(t) + infinite];
-      if (!own.ownsVertex(load<Owner::kShared>(tet_v_[nc]))) return kNoTet;
+      if (!own.ownsVertex(tet_v_[nc])) return kNoTet;
       t = nc >> 2;
       continue;
     }
@@ -442,8 +445,9 @@ index_t DelaunayKernel3D::walkTo(const double* p, index_t t, Worker& w, const Ow
     const unsigned rotated = ((negative | negative << 4) >> r) & 15u;  // bit k: face (r + k) & 3
     const unsigned f = (r + static_cast<unsigned>(__builtin_ctz(rotated))) & 3u;
     const std::uint32_t nc = tet_n_[4 * std::size_t(t) + f];
-    // The neighbour shares three owned vertices with t: it is owned when the fourth one is.
-    if (!own.ownsVertex(load<Owner::kShared>(tet_v_[nc]))) return kNoTet;
+    // The neighbour shares three owned vertices with t: it is owned when the fourth one is (and owned
+    // by nobody else either way, so nobody writes it: a plain read).
+    if (!own.ownsVertex(tet_v_[nc])) return kNoTet;
     t = nc >> 2;
   }
   return kNoTet;
@@ -703,7 +707,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
     // loads now so that the misses overlap instead of following one another.
     std::uint32_t ncs[4];
     for (unsigned i = 0; i < num_faces; ++i) {
-      ncs[i] = load<kShared>(tet_n[4 * std::size_t(c) + faces[i]]);
+      ncs[i] = tet_n[4 * std::size_t(c) + faces[i]];
       __builtin_prefetch(&tet_v[ncs[i] & ~3u]);
       __builtin_prefetch(&mark[ncs[i] >> 2]);
     }
@@ -712,20 +716,20 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
     if (next + 1 < num_cavity) {
       const std::uint32_t* ahead = &tet_n[4 * std::size_t(cav[next + 1])];
       for (unsigned i = 0; i < 4; ++i) {
-        const std::uint32_t nc = load<kShared>(ahead[i]);
+        const std::uint32_t nc = ahead[i];
         __builtin_prefetch(&tet_v[nc & ~3u]);
         __builtin_prefetch(&mark[nc >> 2]);
       }
     }
     index_t cv[4];
-    for (unsigned j = 0; j < 4; ++j) cv[j] = load<kShared>(tet_v[4 * std::size_t(c) + j]);
+    for (unsigned j = 0; j < 4; ++j) cv[j] = tet_v[4 * std::size_t(c) + j];
     for (unsigned i = 0; i < num_faces; ++i) {
       const unsigned f = faces[i];
       const std::uint32_t nc = ncs[i];
       const index_t n = nc >> 2;
       bool on_boundary;
       // n shares face f's three owned vertices with c: it is owned when its fourth vertex is.
-      if (Owner::kShared && !own.ownsVertex(load<kShared>(tet_v[nc]))) {
+      if (Owner::kShared && !own.ownsVertex(tet_v[nc])) {
         // Its vertices are stable: it shares this face with an owned tetrahedron, so nobody owns it.
         ++tests;
         if (inConflict(n, v, p)) {
@@ -783,9 +787,13 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
       nt = newTet();
     made[k] = nt;
     if (track_births_) birth_[nt] = static_cast<std::uint32_t>(num_inserted_ + 1);
-    for (unsigned j = 0; j < 4; ++j) store<kShared>(tet_v_[4 * std::size_t(nt) + j], bf.v[j]);
-    store<kShared>(tet_n_[4 * std::size_t(nt) + bf.face], bf.outer);
-    store<kShared>(tet_n_[bf.outer], 4 * nt + bf.face);
+    index_t* const ntv = &tet_v_[4 * std::size_t(nt)];
+    store<kShared>(ntv[0], bf.v[0]);  // written out: as a loop of atomic stores it stayed a loop
+    store<kShared>(ntv[1], bf.v[1]);
+    store<kShared>(ntv[2], bf.v[2]);
+    store<kShared>(ntv[3], bf.v[3]);
+    tet_n_[4 * std::size_t(nt) + bf.face] = bf.outer;
+    tet_n_[bf.outer] = 4 * nt + bf.face;
   }
   linkNewTetrahedra<kShared>(w);
   w.stats.created_tets += boundary.size();
@@ -841,13 +849,17 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
       const unsigned j = kOtherThree[bf.face][i];
       const index_t x = bf.v[j];
       index_t& slot = x == kInfinite ? infinite_local : vertex_tet[x];
-      const index_t cur = load<kShared>(slot);
-      const bool fresh = (cur & kLocalTag) == 0;
+      const index_t cur = slot;  // only this thread writes its vertices' entries
+      // Selected by a mask, all ones when the vertex has its number already (tagged): written with
+      // `fresh ? ... : ...`, one of the selections compiled to a branch (~15 simulated mispredictions
+      // per inserted point).
+      const index_t numbered = 0u - (cur >> 31);
+      static_assert(kLocalTag == 1u << 31, "the tag is the top bit");
       verts[nv] = x;
       vert_tet[nv] = made[k];
-      store<kShared>(slot, fresh ? (kLocalTag | nv) : cur);
-      corner[4 * k + j] = fresh ? nv : (cur & ~kLocalTag);
-      nv += fresh;
+      store<kShared>(slot, (cur & numbered) | ((kLocalTag | nv) & ~numbered));
+      corner[4 * k + j] = (cur & ~kLocalTag & numbered) | (nv & ~numbered);
+      nv += 1u + numbered;  // +1 for a new number, +0 (wrapping) for an old one
     }
   }
   // fn(k, j, x, y): face j of new tetrahedron k passes through v and the boundary edge from its
@@ -868,7 +880,7 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
       cell[(corner[4 * k + x] << 6) | corner[4 * k + y]] = 4 * made[k] + j;
     });
     forEachFaceThroughV([&](std::size_t k, unsigned j, unsigned x, unsigned y) {
-      store<kShared>(tet_n[4 * std::size_t(made[k]) + j], cell[(corner[4 * k + y] << 6) | corner[4 * k + x]]);
+      tet_n[4 * std::size_t(made[k]) + j] = cell[(corner[4 * k + y] << 6) | corner[4 * k + x]];
     });
   } else {
     // Open addressing on the undirected edge, at most a quarter full; generations tell this
@@ -891,8 +903,8 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
           break;
         }
         if (e.key == key) {
-          store<kShared>(tet_n[4 * std::size_t(nt) + j], e.face);
-          store<kShared>(tet_n[e.face], 4 * nt + j);
+          tet_n[4 * std::size_t(nt) + j] = e.face;
+          tet_n[e.face] = 4 * nt + j;
           break;
         }
       }
@@ -1099,13 +1111,42 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
     if (e) std::rethrow_exception(e);
 }
 
+// Every edge (a, b), a < b, lies in ~5 finite tetrahedra. Rather than walking each vertex's star
+// (random access into the tetrahedra: measured 5 s for 1M points), the tetrahedra are streamed:
+//  1. cut [first, last) into ranges of a with the same number of vertices, so that each range's edge
+//     occurrences (about 6 per tetrahedron, spread over the vertices) fit a bounded buffer;
+//  2. (listByRange) list, per range, the vertex quadruples, sorted, of the tetrahedra that have an
+//     edge owned there (a tetrahedron has three possible smaller endpoints; with Morton ids they are
+//     nearly always in one range);
+//  3. (edgesOfRanges) per range, in parallel: count the occurrences per a, bucket the b's by a, drop
+//     repeats, and write the range's chunk.
+// The lists hold the quadruples themselves, sorted once, not tetrahedron ids: through ids, stage 3
+// fetched every tetrahedron from wherever its slot lay (slots follow the order of the cavities that
+// freed them, not the vertex ids) and sorted its vertices, twice per range (100k points on 2
+// threads: 333 M instructions for the extraction then, 279 M now). Copies cost 16 bytes a
+// tetrahedron instead of 4, so the tetrahedra's pages go back as they are listed (below).
+// No thread writes what another writes (a global count per vertex needed locked adds, and one shared
+// list array written at per-worker offsets ran slower on 2-4 device threads than on one).
+struct DelaunayKernel3D::RangeLists {
+  struct Quad {
+    index_t s[4];  // ascending
+  };
+  std::size_t first = 0, last = 0;
+  unsigned width_bits = 0;  // ranges are 2^width_bits ids wide (a shift, not a 64-bit division)
+  std::size_t num_ranges = 0;
+  unsigned workers = 0;
+  std::vector<SlotArray<Quad>> lists;  // [worker * num_ranges + range]
+  std::size_t rangeOf(index_t v) const { return static_cast<std::size_t>((v - first) >> width_bits); }
+  std::size_t rangeStart(std::size_t r) const { return std::min(last, first + (r << width_bits)); }
+};
+
 DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgeChunks(unsigned num_threads) const {
-  return extractEdges(tet_v_, num_points_, num_threads, 0, num_points_);
+  return edgesOfRanges(listByRange(tet_v_, num_points_, num_threads, 0, num_points_), num_threads);
 }
 
 std::vector<std::pair<index_t, index_t>> DelaunayKernel3D::edgesFrom(std::size_t first,
                                                                      std::size_t last) const {
-  return joinChunks(extractEdges(tet_v_, num_points_, 1, first, last));
+  return joinChunks(edgesOfRanges(listByRange(tet_v_, num_points_, 1, first, last), 1));
 }
 
 std::vector<std::pair<index_t, index_t>> DelaunayKernel3D::joinChunks(EdgeChunks&& chunks,
@@ -1169,37 +1210,23 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::releaseIntoEdgeChunks(unsigned nu
   SlotArray<index_t> tets;
   tets.swap(tet_v_);
   num_inserted_ = 0;
-  EdgeChunks chunks = extractEdges(tets, num_points_, num_threads, 0, num_points_);
+  RangeLists lists = listByRange(tets, num_points_, num_threads, 0, num_points_, &tets);
   detail::freeScratch(tets);
-  return chunks;
+  return edgesOfRanges(std::move(lists), num_threads);
 }
 
-DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const SlotArray<index_t>& tet_v_, std::size_t n,
-                                                            unsigned num_threads, std::size_t first,
-                                                            std::size_t last) {
-  // Every edge (a, b), a < b, lies in ~5 finite tetrahedra. Rather than walking each vertex's star
-  // (random access into the tetrahedra: measured 5 s for 1M points), the tetrahedra are streamed:
-  //  1. cut [first, last) into ranges of a with the same number of vertices, so that each range's
-  //     edge occurrences (about 6 per tetrahedron, spread over the vertices) fit a bounded buffer;
-  //  2. list, per range, the tetrahedra that have an edge owned there (a tetrahedron has three
-  //     possible smaller endpoints; with Morton ids they are nearly always in one range);
-  //  3. per range, in parallel: count the occurrences per a, bucket the b's by a, drop repeats, and
-  //     write the range's chunk.
-  // Memory stays near the buffers (about 16 bytes per point) plus the lists (about one id per
-  // tetrahedron) and the edges themselves, instead of all ~40 occurrences per point. No thread
-  // writes what another writes (a global count per vertex needed locked adds, and one shared list
-  // array written at per-worker offsets ran slower on 2-4 device threads than on one).
+DelaunayKernel3D::RangeLists DelaunayKernel3D::listByRange(const SlotArray<index_t>& tet_v_, std::size_t n,
+                                                           unsigned num_threads, std::size_t first,
+                                                           std::size_t last, SlotArray<index_t>* give_back) {
   if (num_threads == 0) num_threads = 1;
-  EdgeChunks chunks;
+  if (give_back != nullptr && give_back != &tet_v_)
+    throw Error("dw::DelaunayKernel3D::listByRange: give_back must be the listed array");
+  RangeLists out;
   last = std::min(last, n);
-  if (tet_v_.empty() || first >= last) return chunks;
+  if (tet_v_.empty() || first >= last) return out;
   const std::size_t nt = tet_v_.size() / 4;
-
-  // Each edge occurrence (a pair of a tetrahedron's vertices) is owned by its smaller endpoint.
-  auto live = [&](const index_t* tv) {
-    return std::max(std::max(tv[0], tv[1]), std::max(tv[2], tv[3])) < kDead;
-  };
-  const unsigned workers = workerCount(nt, num_threads, 1 << 16);
+  out.first = first;
+  out.last = last;
 
   // 1. Ranges: `budget` occurrences each, estimated as 6 per tetrahedron slot spread over all points
   // (a range holding more only makes its buffer bigger). At least one range per thread. Each thread
@@ -1212,57 +1239,84 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const SlotArray<inde
   const std::size_t per_vertex = std::max<std::size_t>(1, 6 * nt / std::max<std::size_t>(n, 1));
   const std::size_t wanted =
       std::min(span, std::max<std::size_t>(num_threads, (span * per_vertex + budget - 1) / budget));
-  // Widths are powers of two, so a vertex's range is a shift, not a 64-bit division.
-  unsigned width_bits = 0;
-  while ((std::size_t(1) << width_bits) * wanted < span) ++width_bits;
-  const std::size_t num_ranges = ((span - 1) >> width_bits) + 1;
-  auto rangeOf = [&](index_t v) { return static_cast<std::size_t>((v - first) >> width_bits); };
-  auto rangeStart = [&](std::size_t r) { return std::min(last, first + (r << width_bits)); };
+  while ((std::size_t(1) << out.width_bits) * wanted < span) ++out.width_bits;
+  out.num_ranges = ((span - 1) >> out.width_bits) + 1;
+  out.workers = workerCount(nt, num_threads, 1 << 16);
+  const std::size_t num_ranges = out.num_ranges;
 
-  // 2. Per range, the tetrahedra with an edge owned there (a tetrahedron's ranges: those of its three
-  // smaller vertices).
-  auto rangesOf = [&](const index_t* tv, std::size_t out[3]) {
-    index_t v[4] = {tv[0], tv[1], tv[2], tv[3]};
-    const index_t vmin = std::min(std::min(v[0], v[1]), std::min(v[2], v[3]));
-    const index_t vmax = std::max(std::max(v[0], v[1]), std::max(v[2], v[3]));
-    if (vmin >= first && vmax < last && rangeOf(vmin) == rangeOf(vmax)) {
-      out[0] = rangeOf(vmin);  // the common case with Morton ids: one range
-      return 1u;
-    }
-    std::sort(v, v + 4);
-    unsigned k = 0;
-    for (unsigned j = 0; j < 3; ++j) {
-      if (v[j] < first || v[j] >= last) continue;
-      const std::size_t r = rangeOf(v[j]);
-      if (k == 0 || out[k - 1] != r) out[k++] = r;
-    }
-    return k;
+  // 2. Worker w takes the w-th slice of the tetrahedra: per range, it counts the tetrahedra with an
+  // edge owned there, then copies their sorted quadruples into a list of its own sized exactly.
+  // Dead slots and infinite tetrahedra (whose largest id is kDead or kInfinite) are skipped: every
+  // edge between finite vertices lies in a finite tetrahedron.
+  out.lists.resize(std::size_t(out.workers) * num_ranges);
+  // Copying the quadruples would hold the tetrahedra twice (the dragon on 16 device threads peaked at
+  // 268 bytes per point, the insertion at 247): with `give_back`, the fill gives back the pages of what
+  // it has listed in steps of 1 MiB, whose ends lie on 1 MiB boundaries of the array's addresses, so
+  // that consecutive steps give back whole pages, none twice.
+  constexpr std::size_t kStepBytes = std::size_t(1) << 20;
+  const std::uintptr_t base = reinterpret_cast<std::uintptr_t>(tet_v_.data());
+  auto stepEnd = [&](std::size_t t) {  // the first tetrahedron at or after a boundary beyond t
+    const std::uintptr_t next = ((base + 16 * t) / kStepBytes + 1) * kStepBytes;
+    return static_cast<std::size_t>((next - base) / 16);  // base is 16-aligned
   };
-  // Worker w takes the w-th slice of the tetrahedra: per range, it counts the tetrahedra with an edge
-  // owned there, then lists them in a vector of its own sized exactly. Nothing the workers write is
-  // shared (measured on the 16-core device: one shared list array, written at per-worker offsets,
-  // made this pass three times slower on 2 and 4 threads than on one).
-  std::vector<std::vector<index_t>> lists(std::size_t(workers) * num_ranges);
-  parallelFor(nt, workers, [&](std::size_t tb, std::size_t te, unsigned w) {
-    auto forEachEntry = [&](auto&& emit) {
-      std::size_t rs[3];
-      for (std::size_t t = tb; t < te; ++t) {
+  parallelFor(nt, out.workers, [&](std::size_t tb, std::size_t te, unsigned w) {
+    auto forEachEntry = [&](std::size_t from, std::size_t to, auto&& emit) {
+      for (std::size_t t = from; t < to; ++t) {
         const index_t* tv = &tet_v_[4 * t];
-        if (!live(tv)) continue;
-        const unsigned k = rangesOf(tv, rs);
-        for (unsigned j = 0; j < k; ++j) emit(rs[j], static_cast<index_t>(t));
+        RangeLists::Quad q{{tv[0], tv[1], tv[2], tv[3]}};
+        index_t* s = q.s;
+        // A network of branch-free swaps: which id is smaller is a coin flip to the branch predictor.
+        auto order = [&](int i, int j) {
+          const index_t d = (s[i] ^ s[j]) & (0u - index_t(s[j] < s[i]));
+          s[i] ^= d;
+          s[j] ^= d;
+        };
+        order(0, 1);
+        order(2, 3);
+        order(0, 2);
+        order(1, 3);
+        order(1, 2);
+        if (s[3] >= kDead) continue;
+        // The ranges of the three possible owners s0 <= s1 <= s2; with Morton ids nearly always one.
+        if (s[0] >= first && s[2] < last && out.rangeOf(s[0]) == out.rangeOf(s[2])) {
+          emit(out.rangeOf(s[0]), q);
+          continue;
+        }
+        std::size_t previous = num_ranges;
+        for (unsigned j = 0; j < 3; ++j) {
+          if (s[j] < first || s[j] >= last) continue;
+          const std::size_t r = out.rangeOf(s[j]);
+          if (r != previous) emit(r, q);
+          previous = r;
+        }
       }
     };
     std::vector<std::size_t> count(num_ranges, 0);
-    forEachEntry([&](std::size_t r, index_t) { ++count[r]; });
-    std::vector<index_t>* mine = &lists[std::size_t(w) * num_ranges];
-    for (std::size_t r = 0; r < num_ranges; ++r) mine[r].reserve(count[r]);
-    forEachEntry([&](std::size_t r, index_t t) { mine[r].push_back(t); });
+    forEachEntry(tb, te, [&](std::size_t r, const RangeLists::Quad&) { ++count[r]; });
+    SlotArray<RangeLists::Quad>* mine = &out.lists[std::size_t(w) * num_ranges];
+    for (std::size_t r = 0; r < num_ranges; ++r) {
+      mine[r].resize(count[r]);  // unwritten until filled below
+      count[r] = 0;
+    }
+    for (std::size_t b = tb; b < te;) {
+      const std::size_t e = std::min(te, stepEnd(b));
+      forEachEntry(b, e, [&](std::size_t r, const RangeLists::Quad& q) { mine[r][count[r]++] = q; });
+      if (give_back != nullptr) detail::releaseSlice(give_back->data() + 4 * b, 16 * (e - b), 0, 1);
+      b = e;
+    }
   });
+  return out;
+}
 
+DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgesOfRanges(RangeLists&& in, unsigned num_threads) {
+  if (num_threads == 0) num_threads = 1;
+  EdgeChunks chunks;
+  const std::size_t num_ranges = in.num_ranges;
+  if (num_ranges == 0) return chunks;
   // 3. The edges of each range, into a chunk of its own sized exactly (a growing vector per thread
   // held up to twice its edges while reallocating, on every thread at once: 2 threads peaked 20 %
-  // above the insertion at 1M points). Ranges are dealt out to the threads in turn.
+  // above the insertion at 1M points). Ranges are dealt out to the threads in turn; each range's lists
+  // are freed once its chunk is written, so the lists shrink as the edges grow.
   chunks.assign(num_ranges, {});
   auto work = [&](std::size_t part, std::size_t parts) {
     std::vector<std::uint32_t> bucket_offset, fill;
@@ -1272,28 +1326,14 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const SlotArray<inde
     // not the point count, so threads need no per-point stamp array (4 bytes per point per thread).
     std::vector<std::uint64_t> seen;
     for (std::size_t r = part; r < num_ranges; r += parts) {
-      const std::size_t lo = rangeStart(r), hi = rangeStart(r + 1);
-      // Occurrences per a, then the bucket of each a.
-      bucket_offset.assign(hi - lo + 1, 0);
-      // The tetrahedron's vertices sorted by a network of branch-free swaps: then each
-      // pair's smaller endpoint is known, and the only tests left are whether s0, s1, s2 lie in the
-      // range, nearly always true with Morton ids. Taking min and max per pair had compiled to
-      // branches on which id is smaller, a coin flip (~12 simulated mispredictions per point).
+      const std::size_t lo = in.rangeStart(r), hi = in.rangeStart(r + 1);
+      // Occurrences per a, then the bucket of each a. Each quadruple is sorted, so each pair's
+      // smaller endpoint is known, and the only tests left are whether s0, s1, s2 lie in the range,
+      // nearly always true with Morton ids.
       auto forEachOccurrence = [&](auto&& fn) {
-        for (unsigned w = 0; w < workers; ++w)
-          for (const index_t t : lists[std::size_t(w) * num_ranges + r]) {
-            const index_t* tv = &tet_v_[4 * std::size_t(t)];
-            index_t s[4] = {tv[0], tv[1], tv[2], tv[3]};
-            auto order = [&](int i, int j) {  // swap by a mask: min/max became a branch
-              const index_t d = (s[i] ^ s[j]) & (0u - index_t(s[j] < s[i]));
-              s[i] ^= d;
-              s[j] ^= d;
-            };
-            order(0, 1);
-            order(2, 3);
-            order(0, 2);
-            order(1, 3);
-            order(1, 2);
+        for (unsigned w = 0; w < in.workers; ++w)
+          for (const RangeLists::Quad& q : in.lists[std::size_t(w) * num_ranges + r]) {
+            const index_t* s = q.s;
             if (s[0] >= lo && s[0] < hi) {
               fn(s[0] - lo, s[1]);
               fn(s[0] - lo, s[2]);
@@ -1306,11 +1346,14 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::extractEdges(const SlotArray<inde
             if (s[2] >= lo && s[2] < hi) fn(s[2] - lo, s[3]);
           }
       };
+      bucket_offset.assign(hi - lo + 1, 0);
       forEachOccurrence([&](std::size_t i, index_t) { ++bucket_offset[i + 1]; });
       for (std::size_t i = 0; i < hi - lo; ++i) bucket_offset[i + 1] += bucket_offset[i];
       bucket.resize(bucket_offset.back());
       fill.assign(bucket_offset.begin(), bucket_offset.end() - 1);
       forEachOccurrence([&](std::size_t i, index_t b) { bucket[fill[i]++] = b; });
+      for (unsigned w = 0; w < in.workers; ++w)
+        detail::freeScratch(in.lists[std::size_t(w) * num_ranges + r]);
       // Distinct b's moved to the front of the bucket, a by a; fill[a - lo] becomes the end of a's.
       std::size_t distinct = 0;
       for (std::size_t a = lo; a < hi; ++a) {

@@ -94,9 +94,9 @@ class DelaunayKernel3D {
   /// concatenate them after freeing the kernel.
   EdgeChunks edgeChunks(unsigned num_threads) const;
 
-  /// edgeChunks(), but frees the adjacency first and the tetrahedra last: the peak memory then holds
-  /// the vertex quadruples and the edges, not the whole structure plus the edges. Leaves the kernel
-  /// empty (built() is false).
+  /// edgeChunks(), but frees the adjacency first and the tetrahedra once they are listed: the peak
+  /// memory then holds the vertex quadruples and their lists, then the lists and the edges, never the
+  /// whole structure plus the edges. Leaves the kernel empty (built() is false).
   EdgeChunks releaseIntoEdgeChunks(unsigned num_threads);
 
   /// The chunks' edges in one list, in order, copied on `num_threads` threads; each chunk's pages go
@@ -236,8 +236,14 @@ class DelaunayKernel3D {
   // insertParallel() on a batch it takes over (validated by the caller).
   void insertBatch(std::vector<index_t> pending, unsigned num_threads);
 
-  static EdgeChunks extractEdges(const SlotArray<index_t>& tet_v, std::size_t num_points,
-                                 unsigned num_threads, std::size_t first, std::size_t last);
+  // The edge extraction in two stages (see the definitions): the live tetrahedra's sorted vertex
+  // quadruples listed by the range of ids owning their edges, then each range's edges from its lists.
+  // The lists hold everything the edges need: `give_back`, when given, is tet_v itself, which the
+  // caller frees next, and its pages go back to the system as they are listed.
+  struct RangeLists;
+  static RangeLists listByRange(const SlotArray<index_t>& tet_v, std::size_t num_points, unsigned num_threads,
+                                std::size_t first, std::size_t last, SlotArray<index_t>* give_back = nullptr);
+  static EdgeChunks edgesOfRanges(RangeLists&& lists, unsigned num_threads);
   void initialTetrahedron(index_t a, index_t b, index_t c, index_t d);
   index_t locate(index_t v, index_t start);
   index_t locateByScan(index_t v) const;
