@@ -1123,7 +1123,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
 // The lists hold the quadruples themselves, sorted once, not tetrahedron ids: through ids, stage 3
 // fetched every tetrahedron from wherever its slot lay (slots follow the order of the cavities that
 // freed them, not the vertex ids) and sorted its vertices, twice per range (100k points on 2
-// threads: 333 M instructions for the extraction then, 279 M now). Copies cost 16 bytes a
+// threads: 327 M instructions for the extraction then, 279 M now). Copies cost 16 bytes a
 // tetrahedron instead of 4, so the tetrahedra's pages go back as they are listed (below).
 // No thread writes what another writes (a global count per vertex needed locked adds, and one shared
 // list array written at per-worker offsets ran slower on 2-4 device threads than on one).
