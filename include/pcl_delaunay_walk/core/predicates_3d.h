@@ -146,7 +146,7 @@ inline double orient3d(const double* a, const double* b, const double* c, const 
 /// and their xy minors costs about half of four separate calls. Each value is the very arithmetic of
 /// orient3d(., ., ., p) on three of the q's (so its filter applies), negated where moving p to the last
 /// slot is an odd permutation; an undecided one is recomputed by orient3d.
-inline void orient3dFaces(const double q[4][3], const double* p, double out[4]) {
+[[gnu::always_inline]] inline void orient3dFaces(const double q[4][3], const double* p, double out[4]) {
   double d[4][3];
   for (int k = 0; k < 4; ++k)
     for (int c = 0; c < 3; ++c) d[k][c] = q[k][c] - p[c];

@@ -208,8 +208,15 @@ class DelaunayKernel3D {
 
   // The insertion (walk, cavity, re-linking). Returns false, with nothing changed, when the policy
   // does not own what the insertion would touch (never for Everything).
+  // Always inlined into the two compiled versions below, which insertOnThisCpu chooses between.
   template <class Owner>
-  bool insertCore(index_t v, Worker& w, const Owner& own);
+  [[gnu::always_inline]] inline bool insertCore(index_t v, Worker& w, const Owner& own);
+  template <class Owner>
+  bool insertCoreBaseline(index_t v, Worker& w, const Owner& own);
+  template <class Owner>
+  bool insertCoreV3(index_t v, Worker& w, const Owner& own);  // x86-64-v3 where the compiler can
+  template <class Owner>
+  bool insertOnThisCpu(index_t v, Worker& w, const Owner& own);
   template <class Owner>
   bool ownsTet(index_t t, const Owner& own) const;
   // Where a walk to v (at p) starts: see the definition.
@@ -222,10 +229,11 @@ class DelaunayKernel3D {
   // Visibility walk from tetrahedron `start` to the one holding p (or the first infinite one beyond
   // the hull); kNoTet after `guard` steps or, with a sharing owner, where it would leave what it owns.
   template <class Owner>
-  index_t walkTo(const double* p, index_t start, Worker& w, const Owner& own, std::uint64_t guard) const;
+  [[gnu::always_inline]] inline index_t walkTo(const double* p, index_t start, Worker& w, const Owner& own,
+                                               std::uint64_t guard) const;
   // Sets the adjacency between the new tetrahedra w.made (on the faces through the new vertex).
   template <bool kShared>
-  void linkNewTetrahedra(Worker& w);
+  [[gnu::always_inline]] inline void linkNewTetrahedra(Worker& w);
   bool takeSlots(Worker& w, std::size_t count);
   index_t takeSlot(Worker& w);
   void runParallelPass(std::vector<index_t>& pending, unsigned threads, unsigned pass);
@@ -246,6 +254,7 @@ class DelaunayKernel3D {
   static EdgeChunks edgesOfRanges(RangeLists&& lists, unsigned num_threads);
   void initialTetrahedron(index_t a, index_t b, index_t c, index_t d);
   index_t locate(index_t v, index_t start);
+  [[gnu::always_inline]] inline index_t locateInline(index_t v, index_t start);  // locate's body
   index_t locateByScan(index_t v) const;
   // Conflict of tetrahedron t with vertex v at p (p = v's coordinates, converted once per insertion).
   bool inConflict(index_t t, index_t v, const double* p) const;
