@@ -39,8 +39,10 @@ void usage() {
       "  --validate: check the whole triangulation (slow) after each build.\n"
       "  --independent: also the ceiling of any partitioned scheme: T threads each triangulate their\n"
       "  own 1/T of the points (Morton ranges) in separate kernels, nothing shared (not a graph).\n"
-      "  --max-bytes-per-point B: exit with status 3 when a build's peak (B/point) exceeds B (a memory\n"
-      "  check for CI; the first build in the process is the one measured on a fresh heap).\n");
+      "  --max-bytes-per-point B: exit with status 3 when a build's peak (B/point) exceeds B (the first\n"
+      "  build in the process is the one measured on a fresh heap).\n"
+      "  --max-extraction-growth P: exit with status 3 when the edge extraction raises the peak of the\n"
+      "  insertion before it by more than P percent (a check for CI: both peaks come from one build).\n");
 }
 
 double seconds(std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
@@ -51,6 +53,7 @@ struct Run {
   double order_s = 1e30, insert_s = 1e30, parallel_s = 0, busy_max = 0, busy_sum = 0, edges_s = 1e30,
          total_s = 1e30, assemble_s = 1e30;
   double shared = 0, deferred = 0, bytes_per_point = 0;
+  double extraction_growth = 0;  // how far the edge extraction raised the insertion's peak (fraction)
   double walk = 0, tests = 0, created = 0;  // per point: walk steps, conflict tests, tetrahedra made
   std::uint64_t checksum = 0;
   std::size_t edges = 0;
@@ -68,12 +71,15 @@ Run buildOnce(const std::vector<dw::Vec3f>& pts, unsigned threads, bool validate
   kernel.setPoints(pts.data(), pts.size());
   kernel.build(std::move(order), {}, rounds, threads);
   const auto t2 = std::chrono::steady_clock::now();
+  const long insertion_kb = dw::processStatusKb("VmHWM:") - base_kb;
   const auto stats = kernel.stats();
   if (validate) kernel.validate();
   const auto t3 = std::chrono::steady_clock::now();
   auto chunks = kernel.releaseIntoEdgeChunks(threads);
   const auto t4 = std::chrono::steady_clock::now();
-  r.bytes_per_point = 1024.0 * double(dw::processStatusKb("VmHWM:") - base_kb) / pts.size();
+  const long builder_kb = dw::processStatusKb("VmHWM:") - base_kb;
+  r.bytes_per_point = 1024.0 * double(builder_kb) / pts.size();
+  r.extraction_growth = insertion_kb > 0 ? double(builder_kb - insertion_kb) / double(insertion_kb) : 0.0;
   r.order_s = seconds(t0, t1);
   r.insert_s = seconds(t1, t2);
   r.parallel_s = stats.parallel_seconds;
@@ -129,7 +135,8 @@ int main(int argc, char** argv) {
     std::vector<unsigned> threads{1, 2};
     int repeats = 1;
     bool validate = false, independent = false;
-    double max_bytes_per_point = 0;  // 0: no check
+    double max_bytes_per_point = 0;      // 0: no check
+    double max_extraction_growth = -1;  // percent; negative: no check
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
       auto next = [&]() -> std::string {
@@ -151,6 +158,12 @@ int main(int argc, char** argv) {
         independent = true;
       } else if (a == "--max-bytes-per-point") {
         max_bytes_per_point = static_cast<double>(dw_apps::parseCount(next(), "bytes per point"));
+      } else if (a == "--max-extraction-growth") {
+        const std::string v = next();
+        char* end = nullptr;
+        max_extraction_growth = std::strtod(v.c_str(), &end);
+        if (v.empty() || *end != '\0' || !(max_extraction_growth >= 0.0))
+          throw dw::Error("dw_delaunay3d_scaling: bad percent '" + v + "'");
       } else {
         usage();
         return a == "-h" || a == "--help" ? 0 : 2;
@@ -183,12 +196,13 @@ int main(int argc, char** argv) {
     double first = 0;
     std::uint64_t checksum = 0;
     bool same = true;
-    double worst_bytes_per_point = 0;
+    double worst_bytes_per_point = 0, worst_extraction_growth = 0;
     for (unsigned t : threads) {
       Run best;
       for (int k = 0; k < repeats; ++k) {
         const Run r = buildOnce(pts, t, validate);
         worst_bytes_per_point = std::max(worst_bytes_per_point, r.bytes_per_point);
+        worst_extraction_growth = std::max(worst_extraction_growth, r.extraction_growth);
         if (r.total_s < best.total_s) best = r;
       }
       if (first == 0) {
@@ -221,6 +235,11 @@ int main(int argc, char** argv) {
     if (max_bytes_per_point > 0 && worst_bytes_per_point > max_bytes_per_point) {
       std::printf("peak memory %.1f bytes per point exceeds the limit of %.0f\n", worst_bytes_per_point,
                   max_bytes_per_point);
+      return 3;
+    }
+    if (max_extraction_growth >= 0 && 100.0 * worst_extraction_growth > max_extraction_growth) {
+      std::printf("the edge extraction raised the insertion's peak by %.1f %% (limit %.0f %%)\n",
+                  100.0 * worst_extraction_growth, max_extraction_growth);
       return 3;
     }
     return 0;
