@@ -4,6 +4,7 @@
 /// follows the number, errors as dw::Error.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <sstream>
@@ -26,6 +27,15 @@ inline std::uint64_t parseCount(const std::string& s, const char* what = "count"
   if (!end || end == s.c_str() || *end != '\0' || !(v > 0))
     throw dw::Error(std::string("bad ") + what + " '" + s + "'");
   return static_cast<std::uint64_t>(v * mul);
+}
+
+/// A finite number >= 0 with nothing after it ("0", "1.5").
+inline double parseNonNegative(const std::string& s, const char* what) {
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (!end || end == s.c_str() || *end != '\0' || !(v >= 0) || v == HUGE_VAL)
+    throw dw::Error(std::string("bad ") + what + " '" + s + "'");
+  return v;
 }
 
 /// Comma-separated integers in [min, max] ("1,2,4,8,16").

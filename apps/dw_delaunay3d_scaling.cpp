@@ -135,7 +135,7 @@ int main(int argc, char** argv) {
     std::vector<unsigned> threads{1, 2};
     int repeats = 1;
     bool validate = false, independent = false;
-    double max_bytes_per_point = 0;      // 0: no check
+    double max_bytes_per_point = 0;     // 0: no check
     double max_extraction_growth = -1;  // percent; negative: no check
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
@@ -159,11 +159,7 @@ int main(int argc, char** argv) {
       } else if (a == "--max-bytes-per-point") {
         max_bytes_per_point = static_cast<double>(dw_apps::parseCount(next(), "bytes per point"));
       } else if (a == "--max-extraction-growth") {
-        const std::string v = next();
-        char* end = nullptr;
-        max_extraction_growth = std::strtod(v.c_str(), &end);
-        if (v.empty() || *end != '\0' || !(max_extraction_growth >= 0.0))
-          throw dw::Error("dw_delaunay3d_scaling: bad percent '" + v + "'");
+        max_extraction_growth = dw_apps::parseNonNegative(next(), "percent");
       } else {
         usage();
         return a == "-h" || a == "--help" ? 0 : 2;

@@ -826,17 +826,15 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
 }
 
 namespace {
-bool cpuHasX86_64V3() {
+// Read once, at load time: a function-local static would test its guard on every insertion.
+const bool kCpuHasX86_64V3 = [] {
 #if DW_X86_64_V3
-  static const bool has = [] {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("x86-64-v3") != 0;
-  }();
-  return has;
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("x86-64-v3") != 0;
 #else
   return false;
 #endif
-}
+}();
 }  // namespace
 
 // The two compiled versions of the insertion (see DW_TARGET_V3): insertCore, locateInline, walkTo and
@@ -853,7 +851,7 @@ DW_TARGET_V3 bool DelaunayKernel3D::insertCoreV3(index_t v, Worker& w, const Own
 
 template <class Owner>
 bool DelaunayKernel3D::insertOnThisCpu(index_t v, Worker& w, const Owner& own) {
-  return cpuHasX86_64V3() ? insertCoreV3(v, w, own) : insertCoreBaseline(v, w, own);
+  return kCpuHasX86_64V3 ? insertCoreV3(v, w, own) : insertCoreBaseline(v, w, own);
 }
 
 void DelaunayKernel3D::insert(index_t v) {
