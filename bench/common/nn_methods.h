@@ -22,6 +22,8 @@
 
 #ifdef DW_HAVE_NANOFLANN
 #include <nanoflann.hpp>
+static_assert(NANOFLANN_VERSION >= 0x140,
+              "NanoflannNn relies on the constructor building the tree (nanoflann 1.4)");
 #endif
 
 #include "datasets.h"
@@ -190,8 +192,9 @@ class NanoflannNn : public NnMethod {
   std::string name() const override { return "nanoflann"; }
   void build(const std::vector<float>& xyz) override {
     cloud_.xyz = xyz;
+    // The constructor builds the tree (nanoflann >= 1.4; Debian 12 ships 1.4.2). An explicit
+    // buildIndex() after it, as an earlier version of this peer had, built it twice.
     index_.reset(new Index(3, cloud_, nanoflann::KDTreeSingleIndexAdaptorParams(10)));
-    index_->buildIndex();
   }
 
  protected:

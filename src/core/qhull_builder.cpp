@@ -98,7 +98,10 @@ EdgeList qhullDelaunayEdges(const std::vector<Vec3f>& points, int dim, const dou
 
   qhT* qh = q.qh();
   EdgeList edges;
-  edges.reserve(n * (dim == 3 ? 8 : 3));
+  // Every lower facet (a simplex) lists all its vertex pairs, so the list holds each edge about five
+  // times in 3D (~39 per point). Reserved at 8 per point, it grew by doubling to 64 per point while
+  // Qhull's own structures were still alive.
+  edges.reserve(static_cast<std::size_t>(qh->num_facets) * (dim == 3 ? 6 : 3));
   std::vector<char> seen(n, 0);
   facetT* facet;
   vertexT *vertex, **vertexp;
