@@ -84,7 +84,7 @@ void usage() {
          "                [--accept-dataset NAME] [--scan-max-distance M]\n"
          "data sets: teapot-792 dragon-5k bunny-8k dragon-23k bunny-36k lidar-69k dragon-100k dragon-437k\n"
          "           (suffix :half keeps every second point, :quarter every fourth); methods: brute-force "
-         "pcl-kdtree nanoflann\n"
+         "pcl-kdtree nanoflann nanoflann-sorted\n"
          "           pcl-octree walk-zero walk-kd-ann walk-pnn walk-pnn-optimized walk-pnn-prefetch\n"
          "           walk-pnn-optimized-prefetch dw-estimator (walks take @qhull or @incremental for the "
          "builder)\n"

@@ -30,6 +30,7 @@ static_assert(NANOFLANN_VERSION >= 0x140,
 #include "pcl_delaunay_walk/core/graph_builder.h"
 #include "pcl_delaunay_walk/core/neighbour_search.h"
 #include "pcl_delaunay_walk/core/query_order.h"
+#include "pcl_delaunay_walk/core/space_filling_curve.h"
 #include "worker_pool.h"
 
 namespace dwb {
@@ -187,19 +188,56 @@ class PclOctreeNn : public NnMethod {
 #ifdef DW_HAVE_NANOFLANN
 /// nanoflann's KDTreeSingleIndexAdaptor with L2_Simple (the metric it recommends for 3D), leaf size
 /// 10 (its default), over the points in place through the adaptor interface.
+///
+/// With `sorted` (a control for the walks' batch order): each batch is answered in the Morton order of
+/// the query points over the reference's bounding box, the sort timed with the queries. The walks'
+/// estimator groups its batch by start vertex; this gives the tree the same kind of locality.
 class NanoflannNn : public NnMethod {
  public:
-  std::string name() const override { return "nanoflann"; }
+  explicit NanoflannNn(bool sorted = false) : sorted_(sorted) {}
+  std::string name() const override { return sorted_ ? "nanoflann-sorted" : "nanoflann"; }
   void build(const std::vector<float>& xyz) override {
     cloud_.xyz = xyz;
     // The constructor builds the tree (nanoflann >= 1.4; Debian 12 ships 1.4.2). An explicit
     // buildIndex() after it, as an earlier version of this peer had, built it twice.
     index_.reset(new Index(3, cloud_, nanoflann::KDTreeSingleIndexAdaptorParams(10)));
+    if (sorted_) {
+      for (int d = 0; d < 3; ++d) lo_[d] = hi_[d] = xyz.empty() ? 0.f : xyz[d];
+      for (std::size_t i = 0; i < xyz.size(); i += 3)
+        for (int d = 0; d < 3; ++d)
+          lo_[d] = std::min(lo_[d], xyz[i + d]), hi_[d] = std::max(hi_[d], xyz[i + d]);
+    }
   }
 
  protected:
   void nearestRange(const float* q, std::size_t b, std::size_t e, NnBatch& out) override {
+    if (!sorted_) return answer(q, b, e, nullptr, out);
+    // A counting sort on 32^3 Morton cells of the reference's box (queries outside it clamp to its
+    // faces): O(n), like the walks' grouping by start vertex; std::sort on full keys cost more than
+    // the locality saved.
+    constexpr unsigned kBits = 5;
+    std::vector<std::uint32_t> cell(e - b), first((std::size_t(1) << (3 * kBits)) + 1, 0);
     for (std::size_t i = b; i < e; ++i) {
+      std::uint32_t c[3];
+      for (int d = 0; d < 3; ++d) {
+        const float extent = hi_[d] > lo_[d] ? hi_[d] - lo_[d] : 1.f;
+        const float t = std::min(1.f, std::max(0.f, (q[3 * i + d] - lo_[d]) / extent));
+        c[d] = static_cast<std::uint32_t>(t * float((1u << kBits) - 1));
+      }
+      cell[i - b] = static_cast<std::uint32_t>(dw::mortonKey(c[0], c[1], c[2]));
+      ++first[cell[i - b] + 1];
+    }
+    for (std::size_t k = 1; k < first.size(); ++k) first[k] += first[k - 1];
+    std::vector<std::uint32_t> order(e - b);
+    for (std::size_t i = b; i < e; ++i) order[first[cell[i - b]]++] = static_cast<std::uint32_t>(i);
+    answer(q, 0, order.size(), order.data(), out);
+  }
+
+ private:
+  // Queries order[k] (or k itself) for k in [b, e).
+  void answer(const float* q, std::size_t b, std::size_t e, const std::uint32_t* order, NnBatch& out) {
+    for (std::size_t k = b; k < e; ++k) {
+      const std::size_t i = order ? order[k] : k;
       std::uint32_t idx = 0;
       float d2 = 0;
       nanoflann::KNNResultSet<float, std::uint32_t> rs(1);
@@ -210,7 +248,6 @@ class NanoflannNn : public NnMethod {
     }
   }
 
- private:
   struct Cloud {
     std::vector<float> xyz;
     std::size_t kdtree_get_point_count() const { return xyz.size() / 3; }
@@ -224,6 +261,8 @@ class NanoflannNn : public NnMethod {
                                                     std::uint32_t>;
   Cloud cloud_;
   std::unique_ptr<Index> index_;
+  bool sorted_ = false;
+  float lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};
 };
 #endif
 
@@ -326,9 +365,9 @@ inline std::unique_ptr<NnMethod> makeMethod(const std::string& name) {
   if (name == "brute-force") return std::make_unique<BruteForceNn>();
   if (name == "pcl-kdtree") return std::make_unique<PclKdTreeNn>();
   if (name == "pcl-octree") return std::make_unique<PclOctreeNn>();
-  if (name == "nanoflann") {
+  if (name == "nanoflann" || name == "nanoflann-sorted") {
 #ifdef DW_HAVE_NANOFLANN
-    return std::make_unique<NanoflannNn>();
+    return std::make_unique<NanoflannNn>(name == "nanoflann-sorted");
 #else
     return nullptr;
 #endif
