@@ -155,14 +155,17 @@ class PclOctreeNn : public NnMethod {
   void build(const std::vector<float>& xyz) override {
     cloud_ = toCloud(xyz);
     const double n = std::max<double>(1.0, cloud_->size());
-    // Surface-like clouds: spacing ~ sqrt(area / n), with the bbox diagonal squared for the area.
+    // Surface-like clouds: spacing ~ sqrt(area / n), with the bbox diagonal squared for the area. The
+    // factor (2) can be swept with DW_BENCH_OCTREE_FACTOR: the best differs by data set
+    // (docs/benchmarks.md, Session 12).
     double diag = 0;
     {
       Eigen::Vector4f lo, hi;
       pcl::getMinMax3D(*cloud_, lo, hi);
       diag = (hi - lo).head<3>().norm();
     }
-    resolution_ = std::max(1e-6, 2.0 * diag / std::sqrt(n));
+    const char* factor = std::getenv("DW_BENCH_OCTREE_FACTOR");
+    resolution_ = std::max(1e-6, (factor ? std::atof(factor) : 2.0) * diag / std::sqrt(n));
     tree_.reset(new pcl::search::Octree<pcl::PointXYZ>(resolution_));
     tree_->setInputCloud(cloud_);
   }
