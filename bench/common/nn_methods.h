@@ -193,8 +193,9 @@ class PclOctreeNn : public NnMethod {
 /// nanoflann's KDTreeSingleIndexAdaptor with L2_Simple (the metric it recommends for 3D), leaf size
 /// 10 (its default), over the points in place through the adaptor interface.
 ///
-/// With `sorted` (a control for the walks' batch order): each batch is answered in the Morton order of
-/// the query points over the reference's bounding box, the sort timed with the queries. The walks'
+/// With `sorted` (a control for the walks' batch order): each batch is answered grouped by the query
+/// points' cells in a 32^3 Morton order over the reference's bounding box, the sort timed with the
+/// queries. The walks'
 /// estimator groups its batch by start vertex; this gives the tree the same kind of locality.
 class NanoflannNn : public NnMethod {
  public:
