@@ -1,7 +1,8 @@
 // 3D Delaunay graph builders side by side (issue 8): the incremental kernel (1..N threads), Qhull
 // (dw::qhullDelaunayEdges) and CGAL's Delaunay_triangulation_3 (benchmark-only peer) on the same
 // Morton-ordered distinct float points the graph builder hands over. Counters: points per second,
-// peak bytes per point the build adds (measured in a forked child), distinct edges per point.
+// peak bytes per point the build adds (measured in a forked child), distinct edges per point, and for
+// CGAL triangulation_s, its triangulation alone (without the edge listing).
 //
 //   bench_builder3d_core --benchmark_filter=uniform_1M
 //   DW_BENCH_BIG=1 bench_builder3d_core        # also uniform 4M (incremental, CGAL)
@@ -190,7 +191,7 @@ using CgalDelaunay = CGAL::Delaunay_triangulation_3<K, Tds>;
 // then list each finite edge once. The edges are listed per vertex through finite_adjacent_vertices:
 // on 1M uniform points (this box) that took 1.3 s, against 2.2 s through finite_edges_iterator and
 // another 2.2 s for number_of_finite_edges(), which counts by walking all edges (an earlier version
-// of this peer called both and so charged CGAL ~1.8x its cost). *triangulation_s gets the
+// of this peer called both: 8.6 s for CGAL's 5.5 s job). *triangulation_s gets the
 // triangulation's own time.
 dw::EdgeList cgalEdges(const Points& p, std::size_t* cells, double* triangulation_s) {
   std::vector<std::pair<K::Point_3, dw::index_t>> in(p.size());
