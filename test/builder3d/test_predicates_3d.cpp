@@ -7,8 +7,10 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <random>
 
+#include "pcl_delaunay_walk/core/insphere_lanes.h"
 #include "pcl_delaunay_walk/core/predicates_3d.h"
 
 namespace {
@@ -179,6 +181,56 @@ TEST(Predicates3D, Orient3dFacesEqualsFourOrient3d) {
     }
   }
   EXPECT_GT(zeros, 1000);  // exact zeros were exercised
+}
+
+TEST(Predicates3D, InsphereLanesIsBitIdenticalToInsphere) {
+  // The kernel's lane form must return the very double of the scalar insphere (filter and tail), on
+  // random float points at several magnitudes and on nearly cospherical integer points (exact in
+  // float below 2^24) where the filter hands over; the signs are also checked against the reference.
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  std::uniform_real_distribution<double> unit_double(-1.0, 1.0);
+  int undecided = 0;
+  for (int it = 0; it < 40000; ++it) {
+    dw::Vec3f v[4];
+    double e[3];
+    const bool cospherical = it % 2 == 1;
+    if (!cospherical) {
+      const float scale = std::ldexp(1.0f, std::array<int, 4>{-40, 0, 20, 60}[it % 8 / 2]);
+      for (auto& q : v) q = {scale * unit(rng), scale * unit(rng), scale * unit(rng)};
+      // e with a full mantissa, so that the differences and lifts round (float differences would not).
+      for (double& c : e) c = double(scale) * unit_double(rng);
+    } else {  // permutations and sign flips of one (p, q, r) on a sphere of radius < 2^21, e nudged
+      std::uniform_int_distribution<std::int64_t> u(1 << 15, (1 << 20) - 1);
+      const float p = float(u(rng)), q = float(u(rng)), r = float(u(rng));
+      v[0] = {p, q, r};
+      v[1] = {q, r, p};
+      v[2] = {r, p, q};
+      v[3] = {-p, q, r};
+      e[0] = -q;
+      e[1] = -r;
+      e[2] = p;
+      e[it % 3] += static_cast<int>((it / 3) % 3) - 1;
+    }
+    double d[4][3];
+    for (int k = 0; k < 4; ++k) {
+      d[k][0] = v[k].x;
+      d[k][1] = v[k].y;
+      d[k][2] = v[k].z;
+    }
+    const double scalar = insphere(d[0], d[1], d[2], d[3], e);
+    const double lanes =
+        dw::predicates::insphereLanes(v[0], v[1], v[2], v[3], dw::predicates::InsphereQuery(e));
+    ASSERT_EQ(std::memcmp(&scalar, &lanes, sizeof(double)), 0)
+        << "iteration " << it << ": " << scalar << " against " << lanes;
+    if (cospherical) {
+      const P a{d[0][0], d[0][1], d[0][2]}, b{d[1][0], d[1][1], d[1][2]}, c{d[2][0], d[2][1], d[2][2]},
+          dd{d[3][0], d[3][1], d[3][2]}, pe{e[0], e[1], e[2]};
+      ASSERT_EQ(signOf(lanes), insphereRef(a, b, c, dd, pe)) << "iteration " << it;
+      undecided += lanes == 0.0;
+    }
+  }
+  EXPECT_GT(undecided, 1000);  // exact zeros, so the tail ran
 }
 
 TEST(Predicates3D, FractionalAndHugeMagnitudes) {

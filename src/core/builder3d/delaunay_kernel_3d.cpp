@@ -12,6 +12,7 @@
 
 #include "../page_memory.h"
 #include "pcl_delaunay_walk/core/builder3d/affine_span.h"
+#include "pcl_delaunay_walk/core/insphere_lanes.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/predicates_3d.h"
 #include "pcl_delaunay_walk/core/process_memory.h"
@@ -478,8 +479,9 @@ index_t DelaunayKernel3D::locateByScan(index_t v) const {
   const std::size_t nt = tet_v_.size() / 4;
   double p[3];
   point(v, p);
+  const predicates::InsphereQuery query(p);
   for (index_t t = 0; t < nt; ++t)
-    if (tet_v_[4 * std::size_t(t)] != kDead && inConflict(t, v, p)) return t;
+    if (tet_v_[4 * std::size_t(t)] != kDead && inConflict(t, v, query)) return t;
   throw Error("dw::DelaunayKernel3D: no tetrahedron conflicts with vertex " + std::to_string(v) +
               " (duplicate point or corrupted triangulation)");
 }
@@ -487,20 +489,22 @@ index_t DelaunayKernel3D::locateByScan(index_t v) const {
 // Both conflict tests are inlined into the cavity search, which runs ~43 per inserted point: the
 // finite case first, since the infinite tetrahedra are a sliver of the mesh; the simulated-simplicity
 // tie and the hull's test stay out of line.
-[[gnu::always_inline]] inline bool DelaunayKernel3D::finiteInConflict(index_t t, index_t v,
-                                                                      const double* e) const {
+[[gnu::always_inline]] inline bool DelaunayKernel3D::finiteInConflict(
+    index_t t, index_t v, const predicates::InsphereQuery& e) const {
   const index_t* tv = &tet_v_[4 * std::size_t(t)];
+  const double s =
+      predicates::insphereLanes(points_[tv[0]], points_[tv[1]], points_[tv[2]], points_[tv[3]], e);
+  if (__builtin_expect(s != 0.0, 1)) return s > 0.0;
   double a[3], b[3], c[3], d[3];
   point(tv[0], a);
   point(tv[1], b);
   point(tv[2], c);
   point(tv[3], d);
-  const double s = predicates::insphere(a, b, c, d, e);
-  if (__builtin_expect(s != 0.0, 1)) return s > 0.0;
-  return predicates::insphereSoS(a, b, c, d, e, tv[0], tv[1], tv[2], tv[3], v) > 0;
+  return predicates::insphereSoS(a, b, c, d, e.p, tv[0], tv[1], tv[2], tv[3], v) > 0;
 }
 
-[[gnu::always_inline]] inline bool DelaunayKernel3D::inConflict(index_t t, index_t v, const double* p) const {
+[[gnu::always_inline]] inline bool DelaunayKernel3D::inConflict(index_t t, index_t v,
+                                                                const predicates::InsphereQuery& p) const {
   const index_t* tv = &tet_v_[4 * std::size_t(t)];
   if (__builtin_expect(tv[0] != kInfinite && tv[1] != kInfinite && tv[2] != kInfinite && tv[3] != kInfinite,
                        1))
@@ -508,7 +512,9 @@ index_t DelaunayKernel3D::locateByScan(index_t v) const {
   return infiniteInConflict(t, v, p);
 }
 
-bool DelaunayKernel3D::infiniteInConflict(index_t t, index_t v, const double* p) const {
+bool DelaunayKernel3D::infiniteInConflict(index_t t, index_t v,
+                                          const predicates::InsphereQuery& query) const {
+  const double* p = query.p;
   const index_t* tv = &tet_v_[4 * std::size_t(t)];
   unsigned k = 0;
   while (tv[k] != kInfinite) ++k;
@@ -528,7 +534,7 @@ bool DelaunayKernel3D::infiniteInConflict(index_t t, index_t v, const double* p)
   }
   const double o = predicates::orient3d(q[0], q[1], q[2], q[3]);
   if (o != 0.0) return o > 0.0;
-  return finiteInConflict(tet_n_[4 * std::size_t(t) + k] >> 2, v, p);
+  return finiteInConflict(tet_n_[4 * std::size_t(t) + k] >> 2, v, query);
 }
 
 void DelaunayKernel3D::sizeSlotsUnwritten(std::size_t slots) {
@@ -656,6 +662,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
     }
   }
 
+  const predicates::InsphereQuery query(p);
   // Cavity: every tetrahedron whose (perturbed) circumsphere contains v; connected, found by BFS.
   // Marks are set only on owned tetrahedra; a foreign neighbour is tested each time it is reached.
   // The cavity list doubles as the search's queue.
@@ -743,7 +750,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
       if (Owner::kShared && !own.ownsVertex(tet_v[nc])) {
         // Its vertices are stable: it shares this face with an owned tetrahedron, so nobody owns it.
         ++tests;
-        if (inConflict(n, v, p)) {
+        if (inConflict(n, v, query)) {
           clearMarks();
           w.stats.conflict_tests += tests;
           return false;
@@ -754,7 +761,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
         bool in = false;
         if (m == Mark::kUnknown) {
           ++tests;
-          in = inConflict(n, v, p);
+          in = inConflict(n, v, query);
           mark[n] = in ? Mark::kCavity : Mark::kOutside;
           cav[num_cavity] = n;
           ent[num_cavity] = static_cast<std::uint8_t>(nc & 3u);  // n's face towards c
@@ -1488,7 +1495,8 @@ void DelaunayKernel3D::validate() const {
       // Local Delaunay (finite t) or local convexity of the hull (infinite t), same perturbation.
       double po[3];
       point(opposite, po);
-      if (inConflict(t, opposite, po)) fail(t, "face " + std::to_string(f) + " is not locally Delaunay");
+      if (inConflict(t, opposite, predicates::InsphereQuery(po)))
+        fail(t, "face " + std::to_string(f) + " is not locally Delaunay");
     }
     double q[4][3];
     if (inf == 4) {

@@ -24,6 +24,9 @@
 #include "pcl_delaunay_walk/core/uninitialised_allocator.h"
 
 namespace dw {
+namespace predicates {
+struct InsphereQuery;
+}
 namespace builder3d {
 
 /// The kernel's per-tetrahedron arrays: resize(n) leaves new slots unwritten (a parallel pass writes
@@ -256,11 +259,11 @@ class DelaunayKernel3D {
   index_t locate(index_t v, index_t start);
   [[gnu::always_inline]] inline index_t locateInline(index_t v, index_t start);  // locate's body
   index_t locateByScan(index_t v) const;
-  // Conflict of tetrahedron t with vertex v at p (p = v's coordinates, converted once per insertion).
-  bool inConflict(index_t t, index_t v, const double* p) const;
-  bool finiteInConflict(index_t t, index_t v, const double* p) const;
+  // Conflict of tetrahedron t with vertex v at p (v's coordinates, broadcast once per insertion).
+  bool inConflict(index_t t, index_t v, const predicates::InsphereQuery& p) const;
+  bool finiteInConflict(index_t t, index_t v, const predicates::InsphereQuery& p) const;
   // t has the infinite vertex: is v beyond its hull facet (or on it and in conflict behind it)?
-  bool infiniteInConflict(index_t t, index_t v, const double* p) const;
+  bool infiniteInConflict(index_t t, index_t v, const predicates::InsphereQuery& p) const;
   index_t newTet();
   // The three per-slot arrays (vertices, neighbour codes, marks) together; new slots read as recycled.
   void reserveSlots(std::size_t slots);
