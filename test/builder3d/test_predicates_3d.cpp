@@ -10,8 +10,8 @@
 #include <cstring>
 #include <random>
 
-#include "pcl_delaunay_walk/core/insphere_lanes.h"
 #include "pcl_delaunay_walk/core/predicates_3d.h"
+#include "pcl_delaunay_walk/core/predicates_3d_lanes.h"
 
 namespace {
 
@@ -220,7 +220,7 @@ TEST(Predicates3D, InsphereLanesIsBitIdenticalToInsphere) {
     }
     const double scalar = insphere(d[0], d[1], d[2], d[3], e);
     const double lanes =
-        dw::predicates::insphereLanes(v[0], v[1], v[2], v[3], dw::predicates::InsphereQuery(e));
+        dw::predicates::insphereLanes(v[0], v[1], v[2], v[3], dw::predicates::BroadcastPoint(e));
     ASSERT_EQ(std::memcmp(&scalar, &lanes, sizeof(double)), 0)
         << "iteration " << it << ": " << scalar << " against " << lanes;
     if (cospherical) {
@@ -231,6 +231,63 @@ TEST(Predicates3D, InsphereLanesIsBitIdenticalToInsphere) {
     }
   }
   EXPECT_GT(undecided, 1000);  // exact zeros, so the tail ran
+}
+
+TEST(Predicates3D, Orient3dFacesLanesIsBitIdenticalToOrient3dFaces) {
+  // The walk's lane form against the scalar orient3dFaces, value for value: random float points at
+  // several magnitudes with a full-mantissa query, and small integer points with the query on or next
+  // to a face's plane, where the filter hands faces to orient3d (checked against the reference).
+  std::mt19937_64 rng(22);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  std::uniform_real_distribution<double> unit_double(-1.0, 1.0);
+  int zeros = 0;
+  for (int it = 0; it < 40000; ++it) {
+    dw::Vec3f v[4];
+    double p[3];
+    const bool degenerate = it % 2 == 1;
+    if (!degenerate) {
+      const float scale = std::ldexp(1.0f, std::array<int, 4>{-40, 0, 20, 60}[it % 8 / 2]);
+      for (auto& q : v) q = {scale * unit(rng), scale * unit(rng), scale * unit(rng)};
+      for (double& c : p) c = double(scale) * unit_double(rng);
+    } else {
+      for (auto& q : v) {
+        const P r = randomInt(rng, 6);
+        q = {float(r[0]), float(r[1]), float(r[2])};
+      }
+      const int f = it % 4;  // p on the plane of the face opposite f (parallelogram), maybe nudged
+      const dw::Vec3f& a = v[(f + 1) % 4];
+      const dw::Vec3f& b = v[(f + 2) % 4];
+      const dw::Vec3f& c = v[(f + 3) % 4];
+      p[0] = a.x + b.x - c.x;
+      p[1] = a.y + b.y - c.y;
+      p[2] = a.z + b.z - c.z;
+      p[it % 3] += static_cast<int>(it / 4 % 3) - 1;
+    }
+    double q[4][3];
+    for (int k = 0; k < 4; ++k) {
+      q[k][0] = v[k].x;
+      q[k][1] = v[k].y;
+      q[k][2] = v[k].z;
+    }
+    double scalar[4], lanes[4];
+    dw::predicates::orient3dFaces(q, p, scalar);
+    dw::predicates::orient3dFacesLanes(v[0], v[1], v[2], v[3], dw::predicates::BroadcastPoint(p), lanes);
+    for (int f = 0; f < 4; ++f) {
+      ASSERT_EQ(std::memcmp(&scalar[f], &lanes[f], sizeof(double)), 0)
+          << "iteration " << it << ", face " << f << ": " << scalar[f] << " against " << lanes[f];
+      if (degenerate) {
+        P t[4] = {{q[0][0], q[0][1], q[0][2]},
+                  {q[1][0], q[1][1], q[1][2]},
+                  {q[2][0], q[2][1], q[2][2]},
+                  {q[3][0], q[3][1], q[3][2]}};
+        t[f] = {p[0], p[1], p[2]};
+        ASSERT_EQ(signOf(lanes[f]), orientRef(t[0], t[1], t[2], t[3]))
+            << "iteration " << it << ", face " << f;
+        zeros += lanes[f] == 0.0;
+      }
+    }
+  }
+  EXPECT_GT(zeros, 1000);  // exact zeros, so the tail ran
 }
 
 TEST(Predicates3D, FractionalAndHugeMagnitudes) {

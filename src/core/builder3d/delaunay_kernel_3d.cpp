@@ -9,12 +9,15 @@
 #include <string>
 #include <thread>
 #include <type_traits>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "../page_memory.h"
 #include "pcl_delaunay_walk/core/builder3d/affine_span.h"
-#include "pcl_delaunay_walk/core/insphere_lanes.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/predicates_3d.h"
+#include "pcl_delaunay_walk/core/predicates_3d_lanes.h"
 #include "pcl_delaunay_walk/core/process_memory.h"
 
 // The insertion (insertCore with the walk and the linking inlined) is compiled twice, for baseline
@@ -375,6 +378,18 @@ inline void store(std::uint32_t& x, std::uint32_t value) {
     x = value;
 }
 
+// Whether a tetrahedron's four vertex ids hold kInfinite (all ones): one compare of the four at once,
+// asked ~43 times per inserted point (four compares and branches took ~12 instructions).
+inline bool hasInfiniteVertex(const index_t* tv) {
+#if defined(__SSE2__)
+  const __m128i ids = _mm_loadu_si128(reinterpret_cast<const __m128i*>(tv));
+  return _mm_movemask_epi8(_mm_cmpeq_epi32(ids, _mm_set1_epi32(-1))) != 0;
+#else
+  return tv[0] == DelaunayKernel3D::kInfinite || tv[1] == DelaunayKernel3D::kInfinite ||
+         tv[2] == DelaunayKernel3D::kInfinite || tv[3] == DelaunayKernel3D::kInfinite;
+#endif
+}
+
 inline unsigned nextRandom(std::uint32_t& rng) {
   rng ^= rng << 13;
   rng ^= rng >> 17;
@@ -438,6 +453,7 @@ index_t DelaunayKernel3D::walkTo(const double* p, index_t t, Worker& w, const Ow
   // leave them ends at a point whose cavity would not be owned either, almost always, so the caller
   // defers the point at once.
   if (!ownsTet(t, own)) return kNoTet;
+  const predicates::BroadcastPoint query(p);
   for (std::uint64_t steps = 0; steps < guard; ++steps) {
     const index_t* tv = &tet_v_[4 * std::size_t(t)];
     unsigned infinite = 4;
@@ -452,9 +468,8 @@ index_t DelaunayKernel3D::walkTo(const double* p, index_t t, Worker& w, const Ow
       t = nc >> 2;
       continue;
     }
-    double q[4][3], o[4];
-    for (unsigned k = 0; k < 4; ++k) point(tv[k], q[k]);
-    predicates::orient3dFaces(q, p, o);
+    double o[4];
+    predicates::orient3dFacesLanes(points_[tv[0]], points_[tv[1]], points_[tv[2]], points_[tv[3]], query, o);
     const unsigned r = nextRandom(w.rng);
     w.stats.walk_steps += 1;
     // The first face, from a random one on, with p strictly beyond it (the face back to where the
@@ -479,7 +494,7 @@ index_t DelaunayKernel3D::locateByScan(index_t v) const {
   const std::size_t nt = tet_v_.size() / 4;
   double p[3];
   point(v, p);
-  const predicates::InsphereQuery query(p);
+  const predicates::BroadcastPoint query(p);
   for (index_t t = 0; t < nt; ++t)
     if (tet_v_[4 * std::size_t(t)] != kDead && inConflict(t, v, query)) return t;
   throw Error("dw::DelaunayKernel3D: no tetrahedron conflicts with vertex " + std::to_string(v) +
@@ -490,7 +505,7 @@ index_t DelaunayKernel3D::locateByScan(index_t v) const {
 // finite case first, since the infinite tetrahedra are a sliver of the mesh; the simulated-simplicity
 // tie and the hull's test stay out of line.
 [[gnu::always_inline]] inline bool DelaunayKernel3D::finiteInConflict(
-    index_t t, index_t v, const predicates::InsphereQuery& e) const {
+    index_t t, index_t v, const predicates::BroadcastPoint& e) const {
   const index_t* tv = &tet_v_[4 * std::size_t(t)];
   const double s =
       predicates::insphereLanes(points_[tv[0]], points_[tv[1]], points_[tv[2]], points_[tv[3]], e);
@@ -504,16 +519,13 @@ index_t DelaunayKernel3D::locateByScan(index_t v) const {
 }
 
 [[gnu::always_inline]] inline bool DelaunayKernel3D::inConflict(index_t t, index_t v,
-                                                                const predicates::InsphereQuery& p) const {
-  const index_t* tv = &tet_v_[4 * std::size_t(t)];
-  if (__builtin_expect(tv[0] != kInfinite && tv[1] != kInfinite && tv[2] != kInfinite && tv[3] != kInfinite,
-                       1))
-    return finiteInConflict(t, v, p);
+                                                                const predicates::BroadcastPoint& p) const {
+  if (__builtin_expect(!hasInfiniteVertex(&tet_v_[4 * std::size_t(t)]), 1)) return finiteInConflict(t, v, p);
   return infiniteInConflict(t, v, p);
 }
 
 bool DelaunayKernel3D::infiniteInConflict(index_t t, index_t v,
-                                          const predicates::InsphereQuery& query) const {
+                                          const predicates::BroadcastPoint& query) const {
   const double* p = query.p;
   const index_t* tv = &tet_v_[4 * std::size_t(t)];
   unsigned k = 0;
@@ -662,7 +674,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
     }
   }
 
-  const predicates::InsphereQuery query(p);
+  const predicates::BroadcastPoint query(p);
   // Cavity: every tetrahedron whose (perturbed) circumsphere contains v; connected, found by BFS.
   // Marks are set only on owned tetrahedra; a foreign neighbour is tested each time it is reached.
   // The cavity list doubles as the search's queue.
@@ -1495,7 +1507,7 @@ void DelaunayKernel3D::validate() const {
       // Local Delaunay (finite t) or local convexity of the hull (infinite t), same perturbation.
       double po[3];
       point(opposite, po);
-      if (inConflict(t, opposite, predicates::InsphereQuery(po)))
+      if (inConflict(t, opposite, predicates::BroadcastPoint(po)))
         fail(t, "face " + std::to_string(f) + " is not locally Delaunay");
     }
     double q[4][3];

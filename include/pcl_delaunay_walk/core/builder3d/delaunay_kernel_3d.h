@@ -25,7 +25,7 @@
 
 namespace dw {
 namespace predicates {
-struct InsphereQuery;
+struct BroadcastPoint;
 }
 namespace builder3d {
 
@@ -260,10 +260,10 @@ class DelaunayKernel3D {
   [[gnu::always_inline]] inline index_t locateInline(index_t v, index_t start);  // locate's body
   index_t locateByScan(index_t v) const;
   // Conflict of tetrahedron t with vertex v at p (v's coordinates, broadcast once per insertion).
-  bool inConflict(index_t t, index_t v, const predicates::InsphereQuery& p) const;
-  bool finiteInConflict(index_t t, index_t v, const predicates::InsphereQuery& p) const;
+  bool inConflict(index_t t, index_t v, const predicates::BroadcastPoint& p) const;
+  bool finiteInConflict(index_t t, index_t v, const predicates::BroadcastPoint& p) const;
   // t has the infinite vertex: is v beyond its hull facet (or on it and in conflict behind it)?
-  bool infiniteInConflict(index_t t, index_t v, const predicates::InsphereQuery& p) const;
+  bool infiniteInConflict(index_t t, index_t v, const predicates::BroadcastPoint& p) const;
   index_t newTet();
   // The three per-slot arrays (vertices, neighbour codes, marks) together; new slots read as recycled.
   void reserveSlots(std::size_t slots);
