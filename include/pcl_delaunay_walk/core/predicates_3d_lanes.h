@@ -59,9 +59,11 @@ struct BroadcastPoint {
         p{e[0], e[1], e[2]} {}
 };
 
-/// insphere(a, b, c, d, e) for float a..d: the same value, sign-exact (see the file comment).
-[[gnu::always_inline]] inline double insphereLanes(const Vec3f& a, const Vec3f& b, const Vec3f& c,
-                                                   const Vec3f& d, const BroadcastPoint& e) {
+/// insphere's semi-static filter for float a..d: true when it decides, and then `det` is insphere's
+/// value (non-zero). The conflict test branches on this directly: insphere's value compared with zero
+/// again cost ~5 instructions a test.
+[[gnu::always_inline]] inline bool insphereLanesFilter(const Vec3f& a, const Vec3f& b, const Vec3f& c,
+                                                       const Vec3f& d, const BroadcastPoint& e, double& det) {
   using lanes::V4d;
   const V4d x = V4d{a.x, b.x, c.x, d.x} - e.x;
   const V4d y = V4d{a.y, b.y, c.y, d.y} - e.y;
@@ -77,11 +79,18 @@ struct BroadcastPoint {
   // (dlift abc, alift bcd, blift cda, clift dab); the determinant is (first - last) + (third - second).
   const V4d terms = __builtin_shuffle(lift, lanes::kRotate3) * det3;
   const V4d pairs = terms - __builtin_shuffle(terms, lanes::kReverse);
-  const double det = pairs[0] + pairs[2];
+  det = pairs[0] + pairs[2];
   const double l = detail::maxOf(detail::maxOf(lift[0], lift[1]), detail::maxOf(lift[2], lift[3]));
   // The scalar filter's test (predicates::insphere).
   const double l2 = l * l, l5 = l2 * l2 * l;
-  if (l5 > detail::kStaticMinSq && det * det > detail::kIspStaticSq * l5) return det;
+  return l5 > detail::kStaticMinSq && det * det > detail::kIspStaticSq * l5;
+}
+
+/// insphere(a, b, c, d, e) for float a..d: the same value, sign-exact (see the file comment).
+[[gnu::always_inline]] inline double insphereLanes(const Vec3f& a, const Vec3f& b, const Vec3f& c,
+                                                   const Vec3f& d, const BroadcastPoint& e) {
+  double det;
+  if (insphereLanesFilter(a, b, c, d, e, det)) return det;
   return detail::insphereTailOfFloats(a, b, c, d, e.p);
 }
 

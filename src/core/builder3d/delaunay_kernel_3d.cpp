@@ -507,15 +507,17 @@ index_t DelaunayKernel3D::locateByScan(index_t v) const {
 [[gnu::always_inline]] inline bool DelaunayKernel3D::finiteInConflict(
     index_t t, index_t v, const predicates::BroadcastPoint& e) const {
   const index_t* tv = &tet_v_[4 * std::size_t(t)];
-  const double s =
-      predicates::insphereLanes(points_[tv[0]], points_[tv[1]], points_[tv[2]], points_[tv[3]], e);
-  if (__builtin_expect(s != 0.0, 1)) return s > 0.0;
-  double a[3], b[3], c[3], d[3];
-  point(tv[0], a);
-  point(tv[1], b);
-  point(tv[2], c);
-  point(tv[3], d);
-  return predicates::insphereSoS(a, b, c, d, e.p, tv[0], tv[1], tv[2], tv[3], v) > 0;
+  const Vec3f &a = points_[tv[0]], &b = points_[tv[1]], &c = points_[tv[2]], &d = points_[tv[3]];
+  double det;
+  if (__builtin_expect(predicates::insphereLanesFilter(a, b, c, d, e, det), 1)) return det > 0.0;
+  const double s = predicates::detail::insphereTailOfFloats(a, b, c, d, e.p);
+  if (s != 0.0) return s > 0.0;
+  double pa[3], pb[3], pc[3], pd[3];
+  point(tv[0], pa);
+  point(tv[1], pb);
+  point(tv[2], pc);
+  point(tv[3], pd);
+  return predicates::insphereSoS(pa, pb, pc, pd, e.p, tv[0], tv[1], tv[2], tv[3], v) > 0;
 }
 
 [[gnu::always_inline]] inline bool DelaunayKernel3D::inConflict(index_t t, index_t v,
