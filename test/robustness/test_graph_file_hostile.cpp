@@ -1,10 +1,12 @@
 // Graph files from strangers: sizes are never trusted (allocation stays bounded by the file size),
 // forged-but-checksummed files are rejected by structure, and foreign/odd paths give GraphFileError.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <fstream>
 #include <limits>
+#include <string>
 
 #include "pcl_delaunay_walk/core/graph_io.h"
 #include "robustness_util.h"
@@ -25,7 +27,7 @@ void expectRejected(const std::vector<std::uint8_t>& f, const std::string& what)
 }
 
 std::string tempPath(const std::string& name) {
-  return std::string(DW_BINARY_DIR) + "/robustness_" + name;
+  return std::string(DW_BINARY_DIR) + "/robustness_" + std::to_string(::getpid()) + "_" + name;
 }
 
 }  // namespace

@@ -1,11 +1,13 @@
 // The LAS reader on foreign, truncated and lying files: dw::las::LasError (a dw::Error) before any
 // allocation sized by the header, never another exception or a crash.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <string>
 
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/las/las_writer.h"
@@ -19,7 +21,7 @@ using dw_robust::poke;
 namespace {
 
 std::string tempPath(const std::string& name) {
-  return std::string(DW_BINARY_DIR) + "/robustness_" + name;
+  return std::string(DW_BINARY_DIR) + "/robustness_" + std::to_string(::getpid()) + "_" + name;
 }
 
 /// A valid file of three points, as bytes (LAS 1.2 or 1.4, format 0 or 6).

@@ -1,9 +1,11 @@
 // dw::readPointsXyz (PLY / KITTI .bin) on foreign, truncated and lying files: dw::Error, never a crash
 // and never an allocation sized by an untrusted header.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <fstream>
+#include <string>
 
 #include "pcl_delaunay_walk/core/point_file.h"
 #include "pcl_delaunay_walk/core/types.h"
@@ -14,7 +16,8 @@ using namespace dw;
 namespace {
 
 std::string writeTemp(const std::string& name, const std::string& content) {
-  const std::string path = std::string(DW_BINARY_DIR) + "/robustness_" + name;
+  const std::string path =
+      std::string(DW_BINARY_DIR) + "/robustness_" + std::to_string(::getpid()) + "_" + name;
   std::ofstream(path, std::ios::binary) << content;
   return path;
 }

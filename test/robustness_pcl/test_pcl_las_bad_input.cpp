@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <string>
 
 #include "pcl_delaunay_walk/core/las/las_writer.h"
 #include "pcl_delaunay_walk/io/las_io.h"
@@ -15,7 +17,7 @@
 namespace {
 
 std::string tempPath(const std::string& name) {
-  return std::string(DW_BINARY_DIR) + "/robustness_pcl_" + name;
+  return std::string(DW_BINARY_DIR) + "/robustness_pcl_" + std::to_string(::getpid()) + "_" + name;
 }
 
 /// A valid LAS 1.4 file (format 0) of three points, as bytes.

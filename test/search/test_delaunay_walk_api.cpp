@@ -18,7 +18,7 @@ using Walk = pcl::search::DelaunayWalk<pcl::PointXYZ>;
 namespace {
 
 std::string tempPath(const std::string& name) {
-  return std::string(DW_BINARY_DIR) + "/test_search_" + name;
+  return std::string(DW_BINARY_DIR) + "/test_search_" + std::to_string(::getpid()) + "_" + name;
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 /// \brief LAS reader/writer: every point format 0-10 in every version that allows it, extra bytes,
 /// class filtering, corrupt/truncated/LAZ files, and the real airborne tiles.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -23,7 +24,7 @@ using dw::las::LasRecord;
 using dw::las::LasWriter;
 
 std::string tmpPath(const std::string& name) {
-  return std::string(DW_BINARY_DIR) + "/test_las_" + name;
+  return std::string(DW_BINARY_DIR) + "/test_las_" + std::to_string(::getpid()) + "_" + name;
 }
 
 std::vector<LasRecord> sampleRecords(unsigned format, std::size_t n) {

@@ -2,6 +2,7 @@
 /// \brief The streaming PLY writer (header, sizes, vertex compaction, misuse errors) and the synthetic
 /// LiDAR generator (exact count, determinism, classes, LAS round trip, a certified TIN of its output).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstring>
@@ -19,7 +20,7 @@
 namespace {
 
 std::string tmp(const std::string& n) {
-  return std::string(DW_BINARY_DIR) + "/test_tin_" + n;
+  return std::string(DW_BINARY_DIR) + "/test_tin_" + std::to_string(::getpid()) + "_" + n;
 }
 
 TEST(PlyWriter, HeaderSizesAndCompaction) {
