@@ -11,8 +11,9 @@
 /// scalars, x - y*w equals x + y*(-w), and u - w is exactly -(w - u) (round to nearest); like the
 /// scalar filters it needs the core's -ffp-contract=off. test_predicates_3d compares them bit for bit.
 ///
-/// Written with GCC's generic vectors, so the kernel's baseline and x86-64-v3 versions both compile
-/// it (as two SSE2 halves, or AVX).
+/// Written with generic vectors (vector_size, __builtin_shufflevector: GCC 12+ and Clang), so the
+/// kernel's baseline and x86-64-v3 versions both compile it (as two SSE2 halves, or AVX), and so does
+/// the Clang fuzzing build.
 #pragma once
 
 #include "pcl_delaunay_walk/core/predicates_3d.h"
@@ -36,17 +37,24 @@ namespace lanes {
 typedef double V4d __attribute__((vector_size(32)));
 typedef long long V4dMask __attribute__((vector_size(32)));
 
-// Shuffle masks (lane i takes lane mask[i]; 4..7 name the second operand's lanes) rather than
-// functions: a function passing a 32-byte vector by value draws GCC's warning that the ABI changes
-// without AVX.
-constexpr V4dMask kRotate1 = {1, 2, 3, 0}, kRotate2 = {2, 3, 0, 1}, kRotate3 = {3, 0, 1, 2};
-constexpr V4dMask kReverse = {3, 2, 1, 0};
 constexpr V4dMask kNoSign = {0x7FFFFFFFFFFFFFFFLL, 0x7FFFFFFFFFFFFFFFLL, 0x7FFFFFFFFFFFFFFFLL,
                              0x7FFFFFFFFFFFFFFFLL};
-// |v| per lane (a macro-free function would pass the vector by value; see above).
+}  // namespace lanes
+
+// Shuffles and |v| as macros: __builtin_shufflevector (GCC 12+ and Clang; lane i takes the i-th
+// index, 4..7 naming the second operand's lanes) needs constant indices, and a function passing a
+// 32-byte vector by value draws GCC's warning that the ABI changes without AVX.
+#define DW_LANES_ROTATE1(v) __builtin_shufflevector(v, v, 1, 2, 3, 0)
+#define DW_LANES_ROTATE2(v) __builtin_shufflevector(v, v, 2, 3, 0, 1)
+#define DW_LANES_ROTATE3(v) __builtin_shufflevector(v, v, 3, 0, 1, 2)
+#define DW_LANES_REVERSE(v) __builtin_shufflevector(v, v, 3, 2, 1, 0)
+// Lane-wise max of two vectors of non-negative numbers (the comparison's all-ones lanes select a).
+#define DW_LANES_MAX(a, b)                                                                      \
+  ((::dw::predicates::lanes::V4d)(                                                              \
+      ((::dw::predicates::lanes::V4dMask)((a) > (b)) & (::dw::predicates::lanes::V4dMask)(a)) | \
+      (~(::dw::predicates::lanes::V4dMask)((a) > (b)) & (::dw::predicates::lanes::V4dMask)(b))))
 #define DW_LANES_ABS(v) \
   ((::dw::predicates::lanes::V4d)((::dw::predicates::lanes::V4dMask)(v) & ::dw::predicates::lanes::kNoSign))
-}  // namespace lanes
 
 /// A query point (the one being inserted) in every lane: broadcast once, used by every test.
 struct BroadcastPoint {
@@ -69,16 +77,15 @@ struct BroadcastPoint {
   const V4d y = V4d{a.y, b.y, c.y, d.y} - e.y;
   const V4d z = V4d{a.z, b.z, c.z, d.z} - e.z;
   // The xy minors of consecutive points, (ab, bc, cd, da), and of points two apart, (ac, bd, -ac, -bd).
-  const V4d m1 = x * __builtin_shuffle(y, lanes::kRotate1) - __builtin_shuffle(x, lanes::kRotate1) * y;
-  const V4d m2 = x * __builtin_shuffle(y, lanes::kRotate2) - __builtin_shuffle(x, lanes::kRotate2) * y;
+  const V4d m1 = x * DW_LANES_ROTATE1(y) - DW_LANES_ROTATE1(x) * y;
+  const V4d m2 = x * DW_LANES_ROTATE2(y) - DW_LANES_ROTATE2(x) * y;
   // (abc, bcd, cda, dab): e.g. abc = aez bc - bez ac + cez ab, and cda = cez da + dez ac + aez cd,
   // whose middle term is here dez ac = -(dez (-ac)).
-  const V4d det3 = (z * __builtin_shuffle(m1, lanes::kRotate1) - __builtin_shuffle(z, lanes::kRotate1) * m2) +
-                   __builtin_shuffle(z, lanes::kRotate2) * m1;
+  const V4d det3 = (z * DW_LANES_ROTATE1(m1) - DW_LANES_ROTATE1(z) * m2) + DW_LANES_ROTATE2(z) * m1;
   const V4d lift = (x * x + y * y) + z * z;
   // (dlift abc, alift bcd, blift cda, clift dab); the determinant is (first - last) + (third - second).
-  const V4d terms = __builtin_shuffle(lift, lanes::kRotate3) * det3;
-  const V4d pairs = terms - __builtin_shuffle(terms, lanes::kReverse);
+  const V4d terms = DW_LANES_ROTATE3(lift) * det3;
+  const V4d pairs = terms - DW_LANES_REVERSE(terms);
   det = pairs[0] + pairs[2];
   const double l = detail::maxOf(detail::maxOf(lift[0], lift[1]), detail::maxOf(lift[2], lift[3]));
   // The scalar filter's test (predicates::insphere).
@@ -101,14 +108,13 @@ struct BroadcastPoint {
                                                       const Vec3f& q3, const BroadcastPoint& p,
                                                       double out[4]) {
   using lanes::V4d;
-  using lanes::V4dMask;
   const V4d x = V4d{q0.x, q1.x, q2.x, q3.x} - p.x;
   const V4d y = V4d{q0.y, q1.y, q2.y, q3.y} - p.y;
   const V4d z = V4d{q0.z, q1.z, q2.z, q3.z} - p.z;
   // m1 = (m01, m12, m23, m30) and m2 = (m02, m13, m20, m31), m_ij = x_i y_j - x_j y_i; the scalar
   // form's m03, m32 and m13 are their exact negations.
-  const V4d m1 = x * __builtin_shuffle(y, lanes::kRotate1) - __builtin_shuffle(x, lanes::kRotate1) * y;
-  const V4d m2 = x * __builtin_shuffle(y, lanes::kRotate2) - __builtin_shuffle(x, lanes::kRotate2) * y;
+  const V4d m1 = x * DW_LANES_ROTATE1(y) - DW_LANES_ROTATE1(x) * y;
+  const V4d m2 = x * DW_LANES_ROTATE2(y) - DW_LANES_ROTATE2(x) * y;
   // Lane f sums the three products of out[f] in the scalar order, the leading minus of out[0..2]
   // folded into the minors (exact):
   //   out[0] = -(z3 m12 + z1 m23 + z2 m31)   out[1] = -(z0 m32 + z3 m20 + z2 m03)
@@ -117,19 +123,19 @@ struct BroadcastPoint {
   //   of t3: (-m31, m30, -m01, m01).
   const V4d sign1 = {-1.0, 1.0, 1.0, 1.0}, sign2 = {-1.0, 1.0, -1.0, 1.0}, sign3 = {-1.0, 1.0, -1.0, 1.0};
   const V4d t1 =
-      __builtin_shuffle(z, V4dMask{3, 0, 0, 0}) * (__builtin_shuffle(m1, m2, V4dMask{1, 2, 7, 1}) * sign1);
+      __builtin_shufflevector(z, z, 3, 0, 0, 0) * (__builtin_shufflevector(m1, m2, 1, 2, 7, 1) * sign1);
   const V4d t2 =
-      __builtin_shuffle(z, V4dMask{1, 3, 1, 1}) * (__builtin_shuffle(m1, m2, V4dMask{2, 4, 3, 6}) * sign2);
+      __builtin_shufflevector(z, z, 1, 3, 1, 1) * (__builtin_shufflevector(m1, m2, 2, 4, 3, 6) * sign2);
   const V4d t3 =
-      __builtin_shuffle(z, V4dMask{2, 2, 3, 2}) * (__builtin_shuffle(m1, m2, V4dMask{7, 3, 0, 0}) * sign3);
+      __builtin_shufflevector(z, z, 2, 2, 3, 2) * (__builtin_shufflevector(m1, m2, 7, 3, 0, 0) * sign3);
   const V4d o = (t1 + t2) + t3;
   // The scalar filter: with M the largest |difference|, |out[f]| > kO3dStatic M^3 decides.
   const V4d ax = DW_LANES_ABS(x), ay = DW_LANES_ABS(y), az = DW_LANES_ABS(z);
-  const V4d axy = ax > ay ? ax : ay, axyz = axy > az ? axy : az;
+  const V4d axy = DW_LANES_MAX(ax, ay), axyz = DW_LANES_MAX(axy, az);
   const double m = detail::maxOf(detail::maxOf(axyz[0], axyz[1]), detail::maxOf(axyz[2], axyz[3]));
   const double m3 = m * m * m;
   const double bound = m3 > detail::kStaticMin ? detail::kO3dStatic * m3 : HUGE_VAL;
-  const V4dMask decided = DW_LANES_ABS(o) > V4d{bound, bound, bound, bound};
+  const auto decided = DW_LANES_ABS(o) > V4d{bound, bound, bound, bound};
   for (int f = 0; f < 4; ++f) out[f] = o[f];
   const unsigned undecided = unsigned(decided[0] == 0) | unsigned(decided[1] == 0) << 1 |
                              unsigned(decided[2] == 0) << 2 | unsigned(decided[3] == 0) << 3;
@@ -139,3 +145,10 @@ struct BroadcastPoint {
 
 }  // namespace predicates
 }  // namespace dw
+
+#undef DW_LANES_ROTATE1
+#undef DW_LANES_ROTATE2
+#undef DW_LANES_ROTATE3
+#undef DW_LANES_REVERSE
+#undef DW_LANES_MAX
+#undef DW_LANES_ABS
