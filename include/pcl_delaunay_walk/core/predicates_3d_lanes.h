@@ -67,18 +67,31 @@ struct BroadcastPoint {
         p{e[0], e[1], e[2]} {}
 };
 
+namespace lanes {
+/// What both predicates start from, computed as their scalar forms compute it: the four points less
+/// the query, one vector per axis, and the xy minors m_ij = x_i y_j - x_j y_i of consecutive points,
+/// m1 = (m01, m12, m23, m30), and of points two apart, m2 = (m02, m13, m20, m31).
+struct Differences {
+  V4d x, y, z, m1, m2;
+  [[gnu::always_inline]] Differences(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Vec3f& d,
+                                     const BroadcastPoint& p)
+      : x(V4d{a.x, b.x, c.x, d.x} - p.x),
+        y(V4d{a.y, b.y, c.y, d.y} - p.y),
+        z(V4d{a.z, b.z, c.z, d.z} - p.z),
+        m1(x * DW_LANES_ROTATE1(y) - DW_LANES_ROTATE1(x) * y),
+        m2(x * DW_LANES_ROTATE2(y) - DW_LANES_ROTATE2(x) * y) {}
+};
+}  // namespace lanes
+
 /// insphere's semi-static filter for float a..d: true when it decides, and then `det` is insphere's
 /// value (non-zero). The conflict test branches on this directly: insphere's value compared with zero
 /// again cost ~5 instructions a test.
 [[gnu::always_inline]] inline bool insphereLanesFilter(const Vec3f& a, const Vec3f& b, const Vec3f& c,
                                                        const Vec3f& d, const BroadcastPoint& e, double& det) {
   using lanes::V4d;
-  const V4d x = V4d{a.x, b.x, c.x, d.x} - e.x;
-  const V4d y = V4d{a.y, b.y, c.y, d.y} - e.y;
-  const V4d z = V4d{a.z, b.z, c.z, d.z} - e.z;
-  // The xy minors of consecutive points, (ab, bc, cd, da), and of points two apart, (ac, bd, -ac, -bd).
-  const V4d m1 = x * DW_LANES_ROTATE1(y) - DW_LANES_ROTATE1(x) * y;
-  const V4d m2 = x * DW_LANES_ROTATE2(y) - DW_LANES_ROTATE2(x) * y;
+  // Minors (ab, bc, cd, da) and (ac, bd, -ac, -bd).
+  const lanes::Differences q(a, b, c, d, e);
+  const V4d &x = q.x, &y = q.y, &z = q.z, &m1 = q.m1, &m2 = q.m2;
   // (abc, bcd, cda, dab): e.g. abc = aez bc - bez ac + cez ab, and cda = cez da + dez ac + aez cd,
   // whose middle term is here dez ac = -(dez (-ac)).
   const V4d det3 = (z * DW_LANES_ROTATE1(m1) - DW_LANES_ROTATE1(z) * m2) + DW_LANES_ROTATE2(z) * m1;
@@ -108,13 +121,9 @@ struct BroadcastPoint {
                                                       const Vec3f& q3, const BroadcastPoint& p,
                                                       double out[4]) {
   using lanes::V4d;
-  const V4d x = V4d{q0.x, q1.x, q2.x, q3.x} - p.x;
-  const V4d y = V4d{q0.y, q1.y, q2.y, q3.y} - p.y;
-  const V4d z = V4d{q0.z, q1.z, q2.z, q3.z} - p.z;
-  // m1 = (m01, m12, m23, m30) and m2 = (m02, m13, m20, m31), m_ij = x_i y_j - x_j y_i; the scalar
-  // form's m03, m32 and m13 are their exact negations.
-  const V4d m1 = x * DW_LANES_ROTATE1(y) - DW_LANES_ROTATE1(x) * y;
-  const V4d m2 = x * DW_LANES_ROTATE2(y) - DW_LANES_ROTATE2(x) * y;
+  // The scalar form's m03, m32 and m13 are exact negations of m1's and m2's lanes.
+  const lanes::Differences q(q0, q1, q2, q3, p);
+  const V4d &x = q.x, &y = q.y, &z = q.z, &m1 = q.m1, &m2 = q.m2;
   // Lane f sums the three products of out[f] in the scalar order, the leading minus of out[0..2]
   // folded into the minors (exact):
   //   out[0] = -(z3 m12 + z1 m23 + z2 m31)   out[1] = -(z0 m32 + z3 m20 + z2 m03)
