@@ -3,12 +3,15 @@
 // and clear errors on inputs outside its contract.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <limits>
 #include <numeric>
+#include <random>
 
 #include "builder3d/builder3d_test_util.h"
 #include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
 #include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
+#include "pcl_delaunay_walk/core/space_filling_curve.h"
 
 namespace {
 
@@ -31,6 +34,28 @@ std::vector<dw::index_t> identity(std::size_t n) {
   std::vector<dw::index_t> o(n);
   std::iota(o.begin(), o.end(), 0u);
   return o;
+}
+
+TEST(InsertionOrder, SameOrderWhateverTheIdsOrder) {
+  // The order is one sort by (round, Morton code, id). Ids in Morton order take the fast path (a
+  // partition by round, then insertion sort), a few swapped neighbours make it move entries, and a
+  // shuffle exceeds its budget and sorts: all must give the very same order.
+  const auto pts = dw::mortonSortedDistinct(b3d_test::uniformCube(20000, 4));
+  std::vector<dw::index_t> ascending(pts.size());
+  std::iota(ascending.begin(), ascending.end(), 0u);
+  const auto reference = dw::builder3d::brioOrder(pts, ascending);
+  auto sorted_copy = reference;
+  std::sort(sorted_copy.begin(), sorted_copy.end());
+  ASSERT_EQ(sorted_copy, ascending) << "not a permutation";
+  auto nearly = ascending;
+  for (std::size_t i = 0; i + 1 < nearly.size(); i += 97) std::swap(nearly[i], nearly[i + 1]);
+  EXPECT_EQ(dw::builder3d::brioOrder(pts, nearly), reference);
+  auto shuffled = ascending;
+  std::shuffle(shuffled.begin(), shuffled.end(), std::mt19937(7));
+  EXPECT_EQ(dw::builder3d::brioOrder(pts, shuffled), reference);
+  std::vector<std::size_t> rounds;
+  EXPECT_EQ(dw::builder3d::brioOrder(pts, rounds, 0, 2), reference);
+  EXPECT_GT(rounds.size(), 3u);
 }
 
 TEST(DelaunayKernel3D, UniformIsValidAndEdgesAreUnique) {

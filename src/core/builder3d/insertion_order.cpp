@@ -20,6 +20,49 @@ std::uint64_t splitmix64(std::uint64_t x) {
   return x ^ (x >> 31);
 }
 
+// A point's sort key (its BRIO round in the top bits, then its Morton code) and its id.
+struct KeyId {
+  std::uint64_t key;
+  index_t id;
+  bool operator<(const KeyId& o) const { return key != o.key ? key < o.key : id < o.id; }
+};
+constexpr unsigned kRoundShift = 59;
+
+// Sorts kv when it is nearly sorted within each round, which is what the builders are handed: ids in
+// Morton order (buildDelaunayGraph's cells, over global coordinates, differ from these only by
+// rounding: 0-2 entries out of place on the LiDAR frame, the dragon-100k and the bunny). A stable
+// partition by round, then insertion sort with a budget of moves; returns false when the budget runs
+// out (kv still a permutation), and the caller sorts. Either way the result is the one order a sort
+// gives, the key order being total. 1M uniform points, one thread: the order took 0.042-0.044 s
+// instead of 0.082-0.087 s.
+bool sortNearlySorted(std::vector<KeyId>& kv, unsigned rounds) {
+  const std::size_t n = kv.size();
+  std::vector<std::size_t> begin(rounds + 1, 0);
+  for (const KeyId& e : kv) ++begin[(e.key >> kRoundShift) + 1];
+  for (unsigned r = 0; r < rounds; ++r) begin[r + 1] += begin[r];
+  std::vector<KeyId> out(n);
+  std::vector<std::size_t> fill(begin.begin(), begin.end() - 1);
+  for (const KeyId& e : kv) out[fill[e.key >> kRoundShift]++] = e;
+  // Moves allowed: a few per point, so that input in no particular order gives up early.
+  std::size_t budget = n / 4 + 64;
+  for (std::size_t i = 1; i < n; ++i) {
+    const KeyId e = out[i];
+    std::size_t j = i;
+    for (; j > 0 && e < out[j - 1]; --j) {
+      if (budget-- == 0) {
+        out[j] = e;  // still a permutation
+        kv.swap(out);
+        return false;
+      }
+      out[j] = out[j - 1];
+    }
+    out[j] = e;
+  }
+  kv.swap(out);
+  detail::freeScratch(out);
+  return true;
+}
+
 // The subset form, also reporting where each round starts.
 std::vector<index_t> brioOrderInRounds(const std::vector<Vec3f>& points, std::vector<index_t> ids,
                                        std::uint64_t seed, std::vector<std::size_t>& round_begin,
@@ -78,11 +121,6 @@ std::vector<index_t> brioOrderInRounds(const std::vector<Vec3f>& points, std::ve
   while (rounds < 15 && (n >> rounds) > 512) ++rounds;
 
   // One key per point: its round above its Morton code; ids break ties, so the order is unique.
-  struct KeyId {
-    std::uint64_t key;
-    index_t id;
-    bool operator<(const KeyId& o) const { return key != o.key ? key < o.key : id < o.id; }
-  };
   std::vector<KeyId> kv(n);
   const unsigned workers = workerCount(n, num_threads, std::size_t(1) << 16);
   parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned) {
@@ -99,13 +137,13 @@ std::vector<index_t> brioOrderInRounds(const std::vector<Vec3f>& points, std::ve
       unsigned tz = 0;
       while (tz + 1 < rounds && ((h >> tz) & 1u) == 0) ++tz;
       const std::uint64_t round = rounds - 1 - tz;
-      kv[k] = {(round << 59) | (morton >> 4), i};
+      kv[k] = {(round << kRoundShift) | (morton >> 4), i};
     }
   });
-  detail::parallelSort(kv, std::less<KeyId>(), num_threads);
+  if (!sortNearlySorted(kv, rounds)) detail::parallelSort(kv, std::less<KeyId>(), num_threads);
   for (std::size_t k = 0; k < n; ++k) {
     order[k] = kv[k].id;
-    if (k == 0 || (kv[k].key >> 59) != (kv[k - 1].key >> 59)) round_begin.push_back(k);
+    if (k == 0 || (kv[k].key >> kRoundShift) != (kv[k - 1].key >> kRoundShift)) round_begin.push_back(k);
   }
   detail::freeScratch(kv);
   return order;
