@@ -67,6 +67,24 @@ P randomInt(std::mt19937_64& rng, std::int64_t range) {
   return {double(u(rng)), double(u(rng)), double(u(rng))};
 }
 
+// Four float points and a query with a full mantissa (so that differences and lifts round; float
+// differences would not), at a magnitude from 2^-40 to 2^60 chosen by the iteration.
+void randomFloatTetrahedron(std::mt19937_64& rng, int it, dw::Vec3f v[4], double query[3]) {
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  std::uniform_real_distribution<double> unit_double(-1.0, 1.0);
+  const float scale = std::ldexp(1.0f, std::array<int, 4>{-40, 0, 20, 60}[it % 8 / 2]);
+  for (int k = 0; k < 4; ++k) v[k] = {scale * unit(rng), scale * unit(rng), scale * unit(rng)};
+  for (int c = 0; c < 3; ++c) query[c] = double(scale) * unit_double(rng);
+}
+
+void toDoubles(const dw::Vec3f v[4], double d[4][3]) {
+  for (int k = 0; k < 4; ++k) {
+    d[k][0] = v[k].x;
+    d[k][1] = v[k].y;
+    d[k][2] = v[k].z;
+  }
+}
+
 TEST(Predicates3D, ReferenceSignConventions) {
   const P a{0, 0, 0}, b{1, 0, 0}, c{0, 1, 0}, below{0, 0, -1};
   // Shewchuk: positive when d lies below the plane of counter-clockwise a, b, c.
@@ -188,18 +206,13 @@ TEST(Predicates3D, InsphereLanesIsBitIdenticalToInsphere) {
   // random float points at several magnitudes and on nearly cospherical integer points (exact in
   // float below 2^24) where the filter hands over; the signs are also checked against the reference.
   std::mt19937_64 rng(21);
-  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
-  std::uniform_real_distribution<double> unit_double(-1.0, 1.0);
   int undecided = 0;
   for (int it = 0; it < 40000; ++it) {
     dw::Vec3f v[4];
     double e[3];
     const bool cospherical = it % 2 == 1;
     if (!cospherical) {
-      const float scale = std::ldexp(1.0f, std::array<int, 4>{-40, 0, 20, 60}[it % 8 / 2]);
-      for (auto& q : v) q = {scale * unit(rng), scale * unit(rng), scale * unit(rng)};
-      // e with a full mantissa, so that the differences and lifts round (float differences would not).
-      for (double& c : e) c = double(scale) * unit_double(rng);
+      randomFloatTetrahedron(rng, it, v, e);
     } else {  // permutations and sign flips of one (p, q, r) on a sphere of radius < 2^21, e nudged
       std::uniform_int_distribution<std::int64_t> u(1 << 15, (1 << 20) - 1);
       const float p = float(u(rng)), q = float(u(rng)), r = float(u(rng));
@@ -213,11 +226,7 @@ TEST(Predicates3D, InsphereLanesIsBitIdenticalToInsphere) {
       e[it % 3] += static_cast<int>((it / 3) % 3) - 1;
     }
     double d[4][3];
-    for (int k = 0; k < 4; ++k) {
-      d[k][0] = v[k].x;
-      d[k][1] = v[k].y;
-      d[k][2] = v[k].z;
-    }
+    toDoubles(v, d);
     const double scalar = insphere(d[0], d[1], d[2], d[3], e);
     const double lanes =
         dw::predicates::insphereLanes(v[0], v[1], v[2], v[3], dw::predicates::BroadcastPoint(e));
@@ -238,17 +247,13 @@ TEST(Predicates3D, Orient3dFacesLanesIsBitIdenticalToOrient3dFaces) {
   // several magnitudes with a full-mantissa query, and small integer points with the query on or next
   // to a face's plane, where the filter hands faces to orient3d (checked against the reference).
   std::mt19937_64 rng(22);
-  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
-  std::uniform_real_distribution<double> unit_double(-1.0, 1.0);
   int zeros = 0;
   for (int it = 0; it < 40000; ++it) {
     dw::Vec3f v[4];
     double p[3];
     const bool degenerate = it % 2 == 1;
     if (!degenerate) {
-      const float scale = std::ldexp(1.0f, std::array<int, 4>{-40, 0, 20, 60}[it % 8 / 2]);
-      for (auto& q : v) q = {scale * unit(rng), scale * unit(rng), scale * unit(rng)};
-      for (double& c : p) c = double(scale) * unit_double(rng);
+      randomFloatTetrahedron(rng, it, v, p);
     } else {
       for (auto& q : v) {
         const P r = randomInt(rng, 6);
@@ -264,11 +269,7 @@ TEST(Predicates3D, Orient3dFacesLanesIsBitIdenticalToOrient3dFaces) {
       p[it % 3] += static_cast<int>(it / 4 % 3) - 1;
     }
     double q[4][3];
-    for (int k = 0; k < 4; ++k) {
-      q[k][0] = v[k].x;
-      q[k][1] = v[k].y;
-      q[k][2] = v[k].z;
-    }
+    toDoubles(v, q);
     double scalar[4], lanes[4];
     dw::predicates::orient3dFaces(q, p, scalar);
     dw::predicates::orient3dFacesLanes(v[0], v[1], v[2], v[3], dw::predicates::BroadcastPoint(p), lanes);
