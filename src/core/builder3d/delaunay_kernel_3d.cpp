@@ -115,7 +115,14 @@ void DelaunayKernel3D::reserveSlots(std::size_t slots) {
 }
 
 index_t DelaunayKernel3D::newTet() {
-  if (free_.empty()) {
+  ensureFreeSlots(1);
+  const index_t t = free_.back();
+  free_.pop_back();
+  return t;
+}
+
+void DelaunayKernel3D::ensureFreeSlots(std::size_t count) {
+  while (free_.size() < count) {
     // Grown kNewTetBatch slots at a time, which go on the free list lowest on top (so they are taken
     // in order): one slot at a time, the three arrays' resizes cost 3 % of a build's instructions.
     constexpr std::size_t kNewTetBatch = 64;
@@ -128,9 +135,6 @@ index_t DelaunayKernel3D::newTet() {
     if (track_births_) birth_.resize(t + kNewTetBatch, static_cast<std::uint32_t>(num_inserted_));
     for (std::size_t k = t + kNewTetBatch; k-- > t;) free_.push_back(static_cast<index_t>(k));
   }
-  const index_t t = free_.back();
-  free_.pop_back();
-  return t;
 }
 
 void DelaunayKernel3D::initialTetrahedron(index_t a, index_t b, index_t c, index_t d) {
@@ -807,28 +811,45 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
   }
 
   // The new tetrahedra: boundary face k with v is tetrahedron k, put in cavity slot k while there is
-  // one. Each face through v (v and a boundary edge) is shared by the two new tetrahedra on the two
-  // boundary triangles of that edge: they find each other through the edge, below.
+  // one, then in slots off the free list's top. Each face through v (v and a boundary edge) is shared
+  // by the two new tetrahedra on the two boundary triangles of that edge: they find each other through
+  // the edge, below. The slots are all taken first (the sequential free list may grow the arrays), so
+  // that the writes go through raw pointers and counts in locals: with a slot taken per iteration, the
+  // call made the compiler reload every vector's data and size (~500 instructions per point).
+  const std::size_t nb = num_boundary, nc = num_cavity;
   auto& made = w.made;
-  made.resize(boundary.size());
-  for (std::size_t k = 0; k < boundary.size(); ++k) {
-    const BoundaryFace& bf = boundary[k];
-    index_t nt;
-    if (k < cavity.size())
-      nt = cavity[k];
-    else if constexpr (kShared)
-      nt = takeSlot(w);
-    else
-      nt = newTet();
-    made[k] = nt;
-    if (track_births_) birth_[nt] = static_cast<std::uint32_t>(num_inserted_ + 1);
-    index_t* const ntv = &tet_v_[4 * std::size_t(nt)];
-    store<kShared>(ntv[0], bf.v[0]);  // written out: as a loop of atomic stores it stayed a loop
-    store<kShared>(ntv[1], bf.v[1]);
-    store<kShared>(ntv[2], bf.v[2]);
-    store<kShared>(ntv[3], bf.v[3]);
-    tet_n_[4 * std::size_t(nt) + bf.face] = bf.outer;
-    tet_n_[bf.outer] = 4 * nt + bf.face;
+  made.resize(nb);
+  index_t* const mk = made.data();
+  const std::size_t reused = std::min(nb, nc);
+  std::copy(cav, cav + reused, mk);
+  if (nb > nc) {
+    auto& free_list = [&]() -> auto& {
+      if constexpr (kShared)
+        return w.free;  // takeSlots() above made sure it holds enough
+      else
+        return free_;
+    }();
+    if constexpr (!kShared) ensureFreeSlots(nb - nc);
+    const index_t* top = free_list.data() + free_list.size();
+    for (std::size_t k = nc; k < nb; ++k) mk[k] = *--top;
+    free_list.resize(free_list.size() - (nb - nc));
+  }
+  if (track_births_)
+    for (std::size_t k = 0; k < nb; ++k) birth_[mk[k]] = static_cast<std::uint32_t>(num_inserted_ + 1);
+  {
+    index_t* const tv = tet_v_.data();
+    std::uint32_t* const tn = tet_n_.data();
+    for (std::size_t k = 0; k < nb; ++k) {
+      const BoundaryFace& bf = bnd[k];
+      const index_t nt = mk[k];
+      index_t* const ntv = &tv[4 * std::size_t(nt)];
+      store<kShared>(ntv[0], bf.v[0]);  // written out: as a loop of atomic stores it stayed a loop
+      store<kShared>(ntv[1], bf.v[1]);
+      store<kShared>(ntv[2], bf.v[2]);
+      store<kShared>(ntv[3], bf.v[3]);
+      tn[4 * std::size_t(nt) + bf.face] = bf.outer;
+      tn[bf.outer] = 4 * nt + bf.face;
+    }
   }
   linkNewTetrahedra<kShared>(w);
   w.stats.created_tets += boundary.size();

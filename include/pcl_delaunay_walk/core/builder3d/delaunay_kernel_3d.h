@@ -265,6 +265,8 @@ class DelaunayKernel3D {
   // t has the infinite vertex: is v beyond its hull facet (or on it and in conflict behind it)?
   bool infiniteInConflict(index_t t, index_t v, const predicates::BroadcastPoint& p) const;
   index_t newTet();
+  // Grows the arrays until the sequential free list holds at least `count` slots.
+  void ensureFreeSlots(std::size_t count);
   // The three per-slot arrays (vertices, neighbour codes, marks) together; new slots read as recycled.
   void reserveSlots(std::size_t slots);
   // resizeSlots: new slots are cleared (recycled state). sizeSlotsUnwritten: new slots are left for
