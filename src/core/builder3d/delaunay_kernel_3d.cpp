@@ -51,6 +51,13 @@ inline std::size_t hashKey(std::uint64_t k, unsigned bits) {
   return static_cast<std::size_t>((k * 0x9E3779B97F4A7C15ull) >> (64 - bits));
 }
 
+// Scratch of at least n entries, grown (never shrunk) to the largest need seen.
+template <class T>
+inline T* atLeast(SlotArray<T>& v, std::size_t n) {
+  if (v.size() < n) v.resize(std::max(n, 2 * v.size()));
+  return v.data();
+}
+
 // Bits of an open-addressing table for at least `entries` slots (64 at the least).
 inline unsigned tableBits(std::size_t entries) {
   unsigned bits = 6;
@@ -817,9 +824,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
   // that the writes go through raw pointers and counts in locals: with a slot taken per iteration, the
   // call made the compiler reload every vector's data and size (~500 instructions per point).
   const std::size_t nb = num_boundary, nc = num_cavity;
-  auto& made = w.made;
-  made.resize(nb);
-  index_t* const mk = made.data();
+  index_t* const mk = atLeast(w.made, nb);
   const std::size_t reused = std::min(nb, nc);
   std::copy(cav, cav + reused, mk);
   if (nb > nc) {
@@ -860,9 +865,9 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
     else
       free_.push_back(cavity[k]);
   }
-  w.last_tet = made.back();
+  w.last_tet = mk[nb - 1];
   w.last_vertex = v;
-  store<true>(vertex_tet_[v], made.back());
+  store<true>(vertex_tet_[v], mk[nb - 1]);
   if constexpr (kShared)
     ++w.stats.parallel_inserted;
   else
@@ -922,8 +927,7 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
   const std::size_t nb = w.boundary.size();
   const BoundaryFace* boundary = w.boundary.data();
   const index_t* made = w.made.data();
-  w.corner_local.resize(4 * nb);
-  std::uint32_t* corner = w.corner_local.data();  // per new tetrahedron, its vertices' local numbers
+  std::uint32_t* corner = atLeast(w.corner_local, 4 * nb);  // per new tetrahedron, its vertices' local numbers
   std::uint32_t* tet_n = tet_n_.data();
   index_t* vertex_tet = vertex_tet_.data();
   // The local numbers live, tagged, in the vertices' vertex_tet_ entries (tetrahedron ids stay below
@@ -931,10 +935,8 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
   // thread's own in a parallel pass; other threads may read a tagged entry and skip it (insertCore).
   // The infinite vertex is everybody's: its number is a local's. Each number's vertex, and a new
   // tetrahedron holding it, are kept for the last step (at most 3 per face).
-  w.boundary_vertices.resize(3 * nb);
-  w.boundary_vertex_tets.resize(3 * nb);
-  index_t* verts = w.boundary_vertices.data();
-  index_t* vert_tet = w.boundary_vertex_tets.data();
+  index_t* verts = atLeast(w.boundary_vertices, 3 * nb);
+  index_t* vert_tet = atLeast(w.boundary_vertex_tets, 3 * nb);
   index_t infinite_local = 0;
   // Branch-free numbering (whether a vertex is new is a coin flip to the branch predictor).
   std::uint32_t nv = 0;

@@ -191,10 +191,13 @@ class DelaunayKernel3D {
     SlotArray<index_t> cavity, outside;
     SlotArray<std::uint8_t> cavity_entry;  // per cavity tetrahedron, the face it was reached through
     SlotArray<BoundaryFace> boundary;
-    std::vector<index_t> made;                  // the new tetrahedra, one per boundary face
-    std::vector<index_t> boundary_vertices;     // their local numbering (linkNewTetrahedra)
-    std::vector<std::uint32_t> corner_local;    // local numbers of each new tetrahedron's vertices
-    std::vector<index_t> boundary_vertex_tets;  // per boundary vertex, a new tetrahedron holding it
+    // The linking's scratch, grown but never shrunk (its counts are the insertion's locals): resized to
+    // each insertion's count, the growth's zero fill and its out-of-line call cost ~130 instructions
+    // per point.
+    SlotArray<index_t> made;                  // the new tetrahedra, one per boundary face
+    SlotArray<index_t> boundary_vertices;     // their local numbering (linkNewTetrahedra)
+    SlotArray<std::uint32_t> corner_local;    // local numbers of each new tetrahedron's vertices
+    SlotArray<index_t> boundary_vertex_tets;  // per boundary vertex, a new tetrahedron holding it
     std::vector<std::uint32_t> link_direct;     // V x V directed-edge table
     std::vector<LinkEntry> link;                // hash for boundaries of more than kDirectLinkMax vertices
     std::uint32_t generation = 0;
