@@ -571,7 +571,14 @@ void DelaunayKernel3D::sizeSlotsUnwritten(std::size_t slots) {
 void DelaunayKernel3D::resizeSlots(std::size_t slots) {
   const std::size_t old = tet_v_.size() / 4;
   sizeSlotsUnwritten(slots);
-  for (std::size_t t = old; t < slots; ++t) clearSlot(t);
+  // No other thread runs here (the sequential insertion, or between passes): plain fills, which the
+  // compiler vectorises; slot by slot through clearSlot's atomic stores they were ~230 instructions
+  // per inserted point.
+  if (slots > old) {
+    std::fill(tet_v_.begin() + 4 * old, tet_v_.end(), kDead);
+    std::fill(tet_n_.begin() + 4 * old, tet_n_.end(), 0u);
+    std::fill(mark_.begin() + old, mark_.end(), Mark::kUnknown);
+  }
 }
 
 void DelaunayKernel3D::clearSlot(std::size_t t) {
