@@ -852,12 +852,8 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
   const std::size_t reused = std::min(nb, nc);
   std::copy(cav, cav + reused, mk);
   if (nb > nc) {
-    auto& free_list = [&]() -> auto& {
-      if constexpr (kShared)
-        return w.free;  // takeSlots() above made sure it holds enough
-      else
-        return free_;
-    }();
+    // A parallel pass's thread takes its own slots (takeSlots() above made sure it holds enough).
+    std::vector<index_t>& free_list = kShared ? w.free : free_;
     if constexpr (!kShared) ensureFreeSlots(nb - nc);
     const index_t* top = free_list.data() + free_list.size();
     for (std::size_t k = nc; k < nb; ++k) mk[k] = *--top;
@@ -951,7 +947,7 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
   const std::size_t nb = w.boundary.size();
   const BoundaryFace* boundary = w.boundary.data();
   const index_t* made = w.made.data();
-  std::uint32_t* corner = atLeast(w.corner_local, 4 * nb);  // per new tetrahedron, its vertices' local numbers
+  std::uint32_t* corner = atLeast(w.corner_local, 4 * nb);  // per new tetrahedron, its corners' numbers
   std::uint32_t* tet_n = tet_n_.data();
   index_t* vertex_tet = vertex_tet_.data();
   // The local numbers live, tagged, in the vertices' vertex_tet_ entries (tetrahedron ids stay below

@@ -1,6 +1,7 @@
 #include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 
@@ -8,6 +9,7 @@
 #include "../parallel_sort.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/space_filling_curve.h"
+#include "pcl_delaunay_walk/core/uninitialised_allocator.h"
 
 namespace dw {
 namespace builder3d {
@@ -27,39 +29,44 @@ struct KeyId {
   bool operator<(const KeyId& o) const { return key != o.key ? key < o.key : id < o.id; }
 };
 constexpr unsigned kRoundShift = 59;
+// Unwritten until the parallel loops fill them: value-initialised, each 16 bytes per point was zeroed
+// (and its pages faulted in) on one thread before the threads started.
+using KeyIds = std::vector<KeyId, UninitialisedAllocator<KeyId>>;
 
-// Sorts kv when it is nearly sorted within each round, which is what the builders are handed: ids in
-// Morton order (buildDelaunayGraph's cells, over global coordinates, differ from these only by
-// rounding: 0-2 entries out of place on the LiDAR frame, the dragon-100k and the bunny). A stable
-// partition by round, then insertion sort with a budget of moves; returns false when the budget runs
-// out (kv still a permutation), and the caller sorts. Either way the result is the one order a sort
-// gives, the key order being total. 1M uniform points, one thread: the order took 0.042-0.044 s
-// instead of 0.082-0.087 s.
-bool sortNearlySorted(std::vector<KeyId>& kv, unsigned rounds) {
+// Sorts kv, partitioned by round, when it is nearly sorted within each round, which is what the
+// builders are handed: ids in Morton order (buildDelaunayGraph's cells, over global coordinates,
+// differ from these only by rounding: 0-2 entries out of place on the LiDAR frame, the dragon-100k
+// and the bunny). Insertion sort of each worker's block with a budget of moves, then a check that the
+// blocks meet in order; false when a budget runs out or they do not (kv still a permutation), and the
+// caller sorts. Either way the result is the one order a sort gives, the key order being total.
+// The whole order of 1M uniform points on one thread took 0.082-0.087 s with a full sort, 0.042-0.044 s
+// with this on one block, and 0.025-0.027 s (0.018-0.024 s on two threads) since the keys go straight
+// to their rounds, every pass runs on all workers, and the cells are truncated instead of floored.
+bool sortNearlySorted(KeyIds& kv, unsigned workers) {
   const std::size_t n = kv.size();
-  std::vector<std::size_t> begin(rounds + 1, 0);
-  for (const KeyId& e : kv) ++begin[(e.key >> kRoundShift) + 1];
-  for (unsigned r = 0; r < rounds; ++r) begin[r + 1] += begin[r];
-  std::vector<KeyId> out(n);
-  std::vector<std::size_t> fill(begin.begin(), begin.end() - 1);
-  for (const KeyId& e : kv) out[fill[e.key >> kRoundShift]++] = e;
-  // Moves allowed: a few per point, so that input in no particular order gives up early.
-  std::size_t budget = n / 4 + 64;
-  for (std::size_t i = 1; i < n; ++i) {
-    const KeyId e = out[i];
-    std::size_t j = i;
-    for (; j > 0 && e < out[j - 1]; --j) {
-      if (budget-- == 0) {
-        out[j] = e;  // still a permutation
-        kv.swap(out);
-        return false;
+  std::vector<char> done(workers, 0);
+  parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned w) {
+    // Moves allowed: a few per point, so that input in no particular order gives up early.
+    std::size_t budget = (e - b) / 4 + 64;
+    for (std::size_t i = b + 1; i < e; ++i) {
+      const KeyId x = kv[i];
+      std::size_t j = i;
+      for (; j > b && x < kv[j - 1]; --j) {
+        if (budget-- == 0) {
+          kv[j] = x;  // still a permutation
+          return;
+        }
+        kv[j] = kv[j - 1];
       }
-      out[j] = out[j - 1];
+      kv[j] = x;
     }
-    out[j] = e;
-  }
-  kv.swap(out);
-  detail::freeScratch(out);
+    done[w] = 1;
+  });
+  for (unsigned w = 0; w < workers; ++w)
+    if (!done[w]) return false;
+  const std::size_t chunk = (n + workers - 1) / workers;  // parallelFor's blocks
+  for (std::size_t b = chunk; b < n; b += chunk)
+    if (kv[b] < kv[b - 1]) return false;
   return true;
 }
 
@@ -101,50 +108,86 @@ std::vector<index_t> brioOrderInRounds(const std::vector<Vec3f>& points, std::ve
   for (index_t id : order)
     if (id >= points.size()) throw Error("dw::builder3d::brioOrder: point id out of range");
 
-  const Vec3f& p0 = points[order[0]];
-  float lo[3] = {p0.x, p0.y, p0.z}, hi[3] = {lo[0], lo[1], lo[2]};
-  for (index_t id : order) {
-    const Vec3f& p = points[id];
-    const float c[3] = {p.x, p.y, p.z};
-    for (int k = 0; k < 3; ++k) {
-      lo[k] = std::min(lo[k], c[k]);
-      hi[k] = std::max(hi[k], c[k]);
+  const unsigned workers = workerCount(n, num_threads, std::size_t(1) << 16);
+  // The bounding box, per worker block then combined.
+  std::vector<std::array<float, 6>> box(workers);
+  parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned w) {
+    const Vec3f& p0 = points[order[0]];                          // any point of the set starts the box
+    std::array<float, 6> m{p0.x, p0.y, p0.z, p0.x, p0.y, p0.z};  // lo, hi
+    for (std::size_t k = b; k < e; ++k) {
+      const Vec3f& p = points[order[k]];
+      const float c[3] = {p.x, p.y, p.z};
+      for (int a = 0; a < 3; ++a) {
+        m[a] = std::min(m[a], c[a]);
+        m[a + 3] = std::max(m[a + 3], c[a]);
+      }
     }
-  }
+    box[w] = m;
+  });
+  float lo[3] = {box[0][0], box[0][1], box[0][2]}, hi[3] = {box[0][3], box[0][4], box[0][5]};
+  for (const auto& m : box)
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], m[a]);
+      hi[a] = std::max(hi[a], m[a + 3]);
+    }
   // One cubic grid over the box (equal cell size on every axis keeps the curve's locality).
   const double extent =
       std::max({double(hi[0]) - lo[0], double(hi[1]) - lo[1], double(hi[2]) - lo[2], 1e-30});
   const double scale = double((1u << 21) - 1) / extent;
 
-  // Rounds: the first small enough to be cheap whatever its order, then doubling.
+  // Rounds: the first small enough to be cheap whatever its order, then doubling. Round R-1 takes a
+  // point with probability 1/2, R-2 with 1/4, ...; round 0 the remainder.
   unsigned rounds = 1;
   while (rounds < 15 && (n >> rounds) > 512) ++rounds;
+  auto roundOf = [&](index_t i) {
+    // Trailing zero bits of a hash, at most rounds - 1 (a count, not a loop: how far a loop runs is a
+    // coin flip to the branch predictor).
+    const std::uint64_t h =
+        splitmix64(i ^ (seed * 0xD1B54A32D192ED03ull)) | (std::uint64_t(1) << (rounds - 1));
+    return rounds - 1 - static_cast<unsigned>(__builtin_ctzll(h));
+  };
 
-  // One key per point: its round above its Morton code; ids break ties, so the order is unique.
-  std::vector<KeyId> kv(n);
-  const unsigned workers = workerCount(n, num_threads, std::size_t(1) << 16);
-  parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned) {
+  // One key per point: its round above its Morton code; ids break ties, so the order is unique. The
+  // keys are written straight to their round's part (counted first, per worker block, so that the
+  // parts stay in input order): no partition afterwards, and no second buffer to fault in.
+  std::vector<std::size_t> at(std::size_t(workers) * rounds, 0);  // block w, round r: at[w * rounds + r]
+  parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned w) {
+    std::size_t* count = &at[std::size_t(w) * rounds];
+    for (std::size_t k = b; k < e; ++k) ++count[roundOf(order[k])];
+  });
+  std::size_t total = 0;
+  for (unsigned r = 0; r < rounds; ++r) {
+    std::size_t size = 0;
+    for (unsigned w = 0; w < workers; ++w) size += at[std::size_t(w) * rounds + r];
+    if (size > 0) round_begin.push_back(total);  // where each round that has points begins
+    for (unsigned w = 0; w < workers; ++w) {
+      const std::size_t c = at[std::size_t(w) * rounds + r];
+      at[std::size_t(w) * rounds + r] = total;
+      total += c;
+    }
+  }
+  KeyIds kv(n);
+  parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned w) {
+    std::size_t* fill = &at[std::size_t(w) * rounds];
     for (std::size_t k = b; k < e; ++k) {
       const index_t i = order[k];
       const Vec3f& p = points[i];
+      // v >= lo: clamped, the truncation is the floor (std::floor is a library call on baseline
+      // x86-64, three per point: half of this loop's time).
       const auto cell = [&](float v, int axis) {
-        const double c = std::floor((double(v) - lo[axis]) * scale);
+        const double c = (double(v) - lo[axis]) * scale;
         return static_cast<std::uint32_t>(std::min(std::max(c, 0.0), double((1u << 21) - 1)));
       };
       const std::uint64_t morton = mortonKey(cell(p.x, 0), cell(p.y, 1), cell(p.z, 2));
-      // Round R-1 with probability 1/2, R-2 with 1/4, ...; round 0 takes the remainder.
-      const std::uint64_t h = splitmix64(i ^ (seed * 0xD1B54A32D192ED03ull));
-      unsigned tz = 0;
-      while (tz + 1 < rounds && ((h >> tz) & 1u) == 0) ++tz;
-      const std::uint64_t round = rounds - 1 - tz;
-      kv[k] = {(round << kRoundShift) | (morton >> 4), i};
+      const std::uint64_t round = roundOf(i);
+      kv[fill[round]++] = {(round << kRoundShift) | (morton >> 4), i};
     }
   });
-  if (!sortNearlySorted(kv, rounds)) detail::parallelSort(kv, std::less<KeyId>(), num_threads);
-  for (std::size_t k = 0; k < n; ++k) {
-    order[k] = kv[k].id;
-    if (k == 0 || (kv[k].key >> kRoundShift) != (kv[k - 1].key >> kRoundShift)) round_begin.push_back(k);
-  }
+  // The round of a key is in its top bits, so a sort leaves the rounds where they are.
+  if (!sortNearlySorted(kv, workers)) detail::parallelSort(kv, std::less<KeyId>(), num_threads);
+  parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned) {
+    for (std::size_t k = b; k < e; ++k) order[k] = kv[k].id;
+  });
   detail::freeScratch(kv);
   return order;
 }

@@ -198,8 +198,8 @@ class DelaunayKernel3D {
     SlotArray<index_t> boundary_vertices;     // their local numbering (linkNewTetrahedra)
     SlotArray<std::uint32_t> corner_local;    // local numbers of each new tetrahedron's vertices
     SlotArray<index_t> boundary_vertex_tets;  // per boundary vertex, a new tetrahedron holding it
-    std::vector<std::uint32_t> link_direct;     // V x V directed-edge table
-    std::vector<LinkEntry> link;                // hash for boundaries of more than kDirectLinkMax vertices
+    std::vector<std::uint32_t> link_direct;   // V x V directed-edge table
+    std::vector<LinkEntry> link;              // hash for boundaries of more than kDirectLinkMax vertices
     std::uint32_t generation = 0;
     std::vector<index_t> free;  // parallel pass: slots this thread took from the pool or recycled
     index_t last_tet = 0;
