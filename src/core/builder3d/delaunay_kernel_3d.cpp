@@ -610,12 +610,6 @@ bool DelaunayKernel3D::takeSlots(Worker& w, std::size_t count) {
   return true;
 }
 
-index_t DelaunayKernel3D::takeSlot(Worker& w) {
-  const index_t t = w.free.back();  // takeSlots() made sure there is one
-  w.free.pop_back();
-  return t;
-}
-
 template <class Owner>
 index_t DelaunayKernel3D::startAtVertex(index_t u, const Owner& own) const {
   if (u >= num_points_) return kNoTet;  // also catches v - j wrapping below 0

@@ -240,8 +240,8 @@ class DelaunayKernel3D {
   // Sets the adjacency between the new tetrahedra w.made (on the faces through the new vertex).
   template <bool kShared>
   [[gnu::always_inline]] inline void linkNewTetrahedra(Worker& w);
+  // Moves slots from the pass's pool to w.free until it holds `count`; false when the pool is spent.
   bool takeSlots(Worker& w, std::size_t count);
-  index_t takeSlot(Worker& w);
   void runParallelPass(std::vector<index_t>& pending, unsigned threads, unsigned pass);
   // build()'s body; `owned`, when given, is `order`'s vector, freed before the last batch.
   void buildBatches(const index_t* order, std::size_t n, const std::function<void(double)>& progress,
