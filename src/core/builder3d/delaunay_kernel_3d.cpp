@@ -14,6 +14,7 @@
 #endif
 
 #include "../page_memory.h"
+#include "../parallel_bucket.h"
 #include "pcl_delaunay_walk/core/builder3d/affine_span.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/predicates_3d.h"
@@ -1100,28 +1101,13 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
   // 4M-point build on 16).
   {
     const Cell& cells = own[0];  // any thread's view gives every point's cell
-    const unsigned parts = workerCount(pending.size(), threads, 1 << 14);
-    std::vector<std::size_t> at(std::size_t(parts) * threads, 0);  // slice p, cell i: at[p * threads + i]
-    parallelFor(pending.size(), parts, [&](std::size_t b, std::size_t e, unsigned p) {
-      std::size_t* count = &at[std::size_t(p) * threads];
-      for (std::size_t k = b; k < e; ++k) ++count[cells.cellOf(pending[k])];
-    });
-    for (unsigned i = 0; i < threads; ++i) {
-      std::size_t total = 0;
-      for (unsigned p = 0; p < parts; ++p) {
-        const std::size_t c = at[std::size_t(p) * threads + i];
-        at[std::size_t(p) * threads + i] = total;
-        total += c;
-      }
-      workers[i].deferred.resize(total);
-    }
-    parallelFor(pending.size(), parts, [&](std::size_t b, std::size_t e, unsigned p) {
-      std::size_t* next = &at[std::size_t(p) * threads];
-      for (std::size_t k = b; k < e; ++k) {
-        const unsigned i = cells.cellOf(pending[k]);
-        workers[i].deferred[next[i]++] = pending[k];
-      }
-    });
+    detail::parallelBucket(
+        pending.size(), workerCount(pending.size(), threads, 1 << 14), threads,
+        [&](std::size_t k) { return cells.cellOf(pending[k]); },
+        [&](const std::vector<std::size_t>& sizes) {
+          for (unsigned i = 0; i < threads; ++i) workers[i].deferred.resize(sizes[i]);
+        },
+        [&](std::size_t k, unsigned i, std::size_t rank) { workers[i].deferred[rank] = pending[k]; });
   }
   const std::size_t points_in_pass = pending.size();
   detail::freeScratch(pending);  // held again by the to-do lists; refilled after the pass

@@ -6,6 +6,7 @@
 #include <functional>
 
 #include "../page_memory.h"
+#include "../parallel_bucket.h"
 #include "../parallel_sort.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/space_filling_curve.h"
@@ -150,39 +151,29 @@ std::vector<index_t> brioOrderInRounds(const std::vector<Vec3f>& points, std::ve
   // One key per point: its round above its Morton code; ids break ties, so the order is unique. The
   // keys are written straight to their round's part (counted first, per worker block, so that the
   // parts stay in input order): no partition afterwards, and no second buffer to fault in.
-  std::vector<std::size_t> at(std::size_t(workers) * rounds, 0);  // block w, round r: at[w * rounds + r]
-  parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned w) {
-    std::size_t* count = &at[std::size_t(w) * rounds];
-    for (std::size_t k = b; k < e; ++k) ++count[roundOf(order[k])];
-  });
-  std::size_t total = 0;
-  for (unsigned r = 0; r < rounds; ++r) {
-    std::size_t size = 0;
-    for (unsigned w = 0; w < workers; ++w) size += at[std::size_t(w) * rounds + r];
-    if (size > 0) round_begin.push_back(total);  // where each round that has points begins
-    for (unsigned w = 0; w < workers; ++w) {
-      const std::size_t c = at[std::size_t(w) * rounds + r];
-      at[std::size_t(w) * rounds + r] = total;
-      total += c;
-    }
-  }
   KeyIds kv(n);
-  parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned w) {
-    std::size_t* fill = &at[std::size_t(w) * rounds];
-    for (std::size_t k = b; k < e; ++k) {
-      const index_t i = order[k];
-      const Vec3f& p = points[i];
-      // v >= lo: clamped, the truncation is the floor (std::floor is a library call on baseline
-      // x86-64, three per point: half of this loop's time).
-      const auto cell = [&](float v, int axis) {
-        const double c = (double(v) - lo[axis]) * scale;
-        return static_cast<std::uint32_t>(std::min(std::max(c, 0.0), double((1u << 21) - 1)));
-      };
-      const std::uint64_t morton = mortonKey(cell(p.x, 0), cell(p.y, 1), cell(p.z, 2));
-      const std::uint64_t round = roundOf(i);
-      kv[fill[round]++] = {(round << kRoundShift) | (morton >> 4), i};
-    }
-  });
+  std::vector<std::size_t> part_begin(rounds, 0);
+  detail::parallelBucket(
+      n, workers, rounds, [&](std::size_t k) { return roundOf(order[k]); },
+      [&](const std::vector<std::size_t>& sizes) {
+        std::size_t total = 0;
+        for (unsigned r = 0; r < rounds; total += sizes[r], ++r) {
+          part_begin[r] = total;
+          if (sizes[r] > 0) round_begin.push_back(total);  // where each round that has points begins
+        }
+      },
+      [&](std::size_t k, unsigned round, std::size_t rank) {
+        const index_t i = order[k];
+        const Vec3f& p = points[i];
+        // v >= lo: clamped, the truncation is the floor (std::floor is a library call on baseline
+        // x86-64, three per point: half of this loop's time).
+        const auto cell = [&](float v, int axis) {
+          const double c = (double(v) - lo[axis]) * scale;
+          return static_cast<std::uint32_t>(std::min(std::max(c, 0.0), double((1u << 21) - 1)));
+        };
+        const std::uint64_t morton = mortonKey(cell(p.x, 0), cell(p.y, 1), cell(p.z, 2));
+        kv[part_begin[round] + rank] = {(std::uint64_t(round) << kRoundShift) | (morton >> 4), i};
+      });
   // The round of a key is in its top bits, so a sort leaves the rounds where they are.
   if (!sortNearlySorted(kv, workers)) detail::parallelSort(kv, std::less<KeyId>(), num_threads);
   parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned) {
