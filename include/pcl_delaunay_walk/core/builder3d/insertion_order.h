@@ -12,8 +12,9 @@
 namespace dw {
 namespace builder3d {
 
-/// The BRIO order of points[0..n): a permutation of 0..n-1. Round r holds about n / 2^(R-r) points
-/// (the last round about half of them), each round in Morton order over the bounding box. The
+/// The BRIO order of points[0..n): a permutation of 0..n-1. Rounds grow fourfold: the last holds
+/// about 3/4 of the points, the one before 3/16, and so on; each round in Morton order over the
+/// bounding box. The
 /// "random" choice is a hash of the index and `seed`, so the order (and thus every perturbation-
 /// independent result, and the speed) is reproducible.
 std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::uint64_t seed = 0);
