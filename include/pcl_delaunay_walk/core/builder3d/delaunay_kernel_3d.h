@@ -257,7 +257,8 @@ class DelaunayKernel3D {
   struct RangeLists;
   static RangeLists listByRange(const SlotArray<index_t>& tet_v, std::size_t num_points, unsigned num_threads,
                                 std::size_t first, std::size_t last, SlotArray<index_t>* give_back = nullptr);
-  static EdgeChunks edgesOfRanges(RangeLists&& lists, unsigned num_threads);
+  // `edge_bound`, when not 0, bounds the edge count: on one thread the edges then go into one chunk.
+  static EdgeChunks edgesOfRanges(RangeLists&& lists, unsigned num_threads, std::size_t edge_bound = 0);
   void initialTetrahedron(index_t a, index_t b, index_t c, index_t d);
   index_t locate(index_t v, index_t start);
   [[gnu::always_inline]] inline index_t locateInline(index_t v, index_t start);  // locate's body
