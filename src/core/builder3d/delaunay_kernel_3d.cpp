@@ -1225,19 +1225,20 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
 // freed them, not the vertex ids) and sorted its vertices, twice per range (100k points on 2
 // threads: 327 M instructions for the extraction then, 279 M now). Copies cost 16 bytes a
 // tetrahedron instead of 4, so the tetrahedra's pages go back as they are listed (below).
-// No thread writes what another writes (a global count per vertex needed locked adds, and one shared
-// list array written at per-worker offsets ran slower on 2-4 device threads than on one).
+// No thread writes what another writes: each worker fills its own part of the lists' array (a global
+// count per vertex needed locked adds).
 struct DelaunayKernel3D::RangeLists {
-  struct Quad {
-    index_t s[4];  // ascending
-  };
   std::size_t first = 0, last = 0;
   unsigned width_bits = 0;  // ranges are 2^width_bits ids wide (a shift, not a 64-bit division)
   std::size_t num_ranges = 0;
   unsigned workers = 0;
-  std::vector<SlotArray<Quad>> lists;  // [worker * num_ranges + range]
+  // The lists, worker by worker, each worker's range by range, in one array of quadruples (four
+  // ascending ids each): list (w, r) is quadruples [at[i], at[i + 1]) for i = w * num_ranges + r.
+  SlotArray<index_t> quads;
+  std::vector<std::size_t> at;
   std::size_t rangeOf(index_t v) const { return static_cast<std::size_t>((v - first) >> width_bits); }
   std::size_t rangeStart(std::size_t r) const { return std::min(last, first + (r << width_bits)); }
+  std::size_t list(unsigned w, std::size_t r) const { return std::size_t(w) * num_ranges + r; }
 };
 
 DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgeChunks(unsigned num_threads) const {
@@ -1305,7 +1306,9 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::releaseIntoEdgeChunks(unsigned nu
   // Euler's relation for the triangulated ball: edges = V + T + H / 2 - 1 for T finite tetrahedra and
   // H hull triangles (one per infinite tetrahedron), so V + T + H, what is counted here, bounds them.
   const std::size_t edge_bound = num_inserted_ + numLiveTetrahedra();
-  detail::freeScratch(tet_n_);
+  // The adjacency's storage, mapped already, becomes the lists' (listByRange's donor).
+  SlotArray<index_t> adjacency;
+  adjacency.swap(tet_n_);
   detail::freeScratch(mark_);
   detail::freeScratch(free_);
   detail::freeScratch(birth_);
@@ -1313,14 +1316,16 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::releaseIntoEdgeChunks(unsigned nu
   SlotArray<index_t> tets;
   tets.swap(tet_v_);
   num_inserted_ = 0;
-  RangeLists lists = listByRange(tets, num_points_, num_threads, 0, num_points_, &tets);
+  RangeLists lists = listByRange(tets, num_points_, num_threads, 0, num_points_, &tets, &adjacency);
+  detail::freeScratch(adjacency);
   detail::freeScratch(tets);
   return edgesOfRanges(std::move(lists), num_threads, edge_bound);
 }
 
 DelaunayKernel3D::RangeLists DelaunayKernel3D::listByRange(const SlotArray<index_t>& tet_v_, std::size_t n,
                                                            unsigned num_threads, std::size_t first,
-                                                           std::size_t last, SlotArray<index_t>* give_back) {
+                                                           std::size_t last, SlotArray<index_t>* give_back,
+                                                           SlotArray<index_t>* donor) {
   if (num_threads == 0) num_threads = 1;
   if (give_back != nullptr && give_back != &tet_v_)
     throw Error("dw::DelaunayKernel3D::listByRange: give_back must be the listed array");
@@ -1351,10 +1356,9 @@ DelaunayKernel3D::RangeLists DelaunayKernel3D::listByRange(const SlotArray<index
   const std::size_t num_ranges = out.num_ranges;
 
   // 2. Worker w takes the w-th slice of the tetrahedra: per range, it counts the tetrahedra with an
-  // edge owned there, then copies their sorted quadruples into a list of its own sized exactly.
-  // Dead slots and infinite tetrahedra (whose largest id is kDead or kInfinite) are skipped: every
-  // edge between finite vertices lies in a finite tetrahedron.
-  out.lists.resize(std::size_t(out.workers) * num_ranges);
+  // edge owned there, then copies their sorted quadruples into its part of the lists, each list sized
+  // exactly. Dead slots and infinite tetrahedra (whose largest id is kDead or kInfinite) are skipped:
+  // every edge between finite vertices lies in a finite tetrahedron.
   // Copying the quadruples would hold the tetrahedra twice (the dragon on 16 device threads peaked at
   // 268 bytes per point, the insertion at 247): with `give_back`, the fill gives back the pages of what
   // it has listed in steps of 1 MiB, whose ends lie on 1 MiB boundaries of the array's addresses, so
@@ -1365,48 +1369,69 @@ DelaunayKernel3D::RangeLists DelaunayKernel3D::listByRange(const SlotArray<index
     const std::uintptr_t next = ((base + 16 * t) / kStepBytes + 1) * kStepBytes;
     return static_cast<std::size_t>((next - base) / 16);  // base is 16-aligned
   };
-  parallelFor(nt, out.workers, [&](std::size_t tb, std::size_t te, unsigned w) {
-    auto forEachEntry = [&](std::size_t from, std::size_t to, auto&& emit) {
-      for (std::size_t t = from; t < to; ++t) {
-        const index_t* tv = &tet_v_[4 * t];
-        RangeLists::Quad q{{tv[0], tv[1], tv[2], tv[3]}};
-        index_t* s = q.s;
-        // A network of branch-free swaps: which id is smaller is a coin flip to the branch predictor.
-        auto order = [&](int i, int j) {
-          const index_t d = (s[i] ^ s[j]) & (0u - index_t(s[j] < s[i]));
-          s[i] ^= d;
-          s[j] ^= d;
-        };
-        order(0, 1);
-        order(2, 3);
-        order(0, 2);
-        order(1, 3);
-        order(1, 2);
-        if (s[3] >= kDead) continue;
-        // The ranges of the three possible owners s0 <= s1 <= s2; with Morton ids nearly always one.
-        if (s[0] >= first && s[2] < last && out.rangeOf(s[0]) == out.rangeOf(s[2])) {
-          emit(out.rangeOf(s[0]), q);
-          continue;
-        }
-        std::size_t previous = num_ranges;
-        for (unsigned j = 0; j < 3; ++j) {
-          if (s[j] < first || s[j] >= last) continue;
-          const std::size_t r = out.rangeOf(s[j]);
-          if (r != previous) emit(r, q);
-          previous = r;
-        }
+  auto forEachEntry = [&](std::size_t from, std::size_t to, auto&& emit) {
+    for (std::size_t t = from; t < to; ++t) {
+      const index_t* tv = &tet_v_[4 * t];
+      index_t s[4] = {tv[0], tv[1], tv[2], tv[3]};
+      // A network of branch-free swaps: which id is smaller is a coin flip to the branch predictor.
+      auto order = [&](int i, int j) {
+        const index_t d = (s[i] ^ s[j]) & (0u - index_t(s[j] < s[i]));
+        s[i] ^= d;
+        s[j] ^= d;
+      };
+      order(0, 1);
+      order(2, 3);
+      order(0, 2);
+      order(1, 3);
+      order(1, 2);
+      if (s[3] >= kDead) continue;
+      // The ranges of the three possible owners s0 <= s1 <= s2; with Morton ids nearly always one.
+      if (s[0] >= first && s[2] < last && out.rangeOf(s[0]) == out.rangeOf(s[2])) {
+        emit(out.rangeOf(s[0]), s);
+        continue;
       }
-    };
-    std::vector<std::size_t> count(num_ranges, 0);
-    forEachEntry(tb, te, [&](std::size_t r, const RangeLists::Quad&) { ++count[r]; });
-    SlotArray<RangeLists::Quad>* mine = &out.lists[std::size_t(w) * num_ranges];
-    for (std::size_t r = 0; r < num_ranges; ++r) {
-      mine[r].resize(count[r]);  // unwritten until filled below
-      count[r] = 0;
+      std::size_t previous = num_ranges;
+      for (unsigned j = 0; j < 3; ++j) {
+        if (s[j] < first || s[j] >= last) continue;
+        const std::size_t r = out.rangeOf(s[j]);
+        if (r != previous) emit(r, s);
+        previous = r;
+      }
     }
+  };
+  std::vector<std::size_t>& at = out.at;
+  at.assign(std::size_t(out.workers) * num_ranges + 1, 0);
+  parallelFor(nt, out.workers, [&](std::size_t tb, std::size_t te, unsigned w) {
+    std::size_t* count = &at[out.list(w, 0) + 1];
+    forEachEntry(tb, te, [&](std::size_t r, const index_t*) { ++count[r]; });
+  });
+  for (std::size_t i = 1; i < at.size(); ++i) at[i] += at[i - 1];
+  // The lists' array: the donor's storage when it is big enough (the adjacency, freed next anyway,
+  // whose pages are mapped already: 1M points took ~26k page faults to map the lists afresh), its
+  // pages beyond the lists given back; otherwise the donor is freed first and the array is new.
+  const std::size_t words = 4 * at.back();
+  if (donor != nullptr && donor->capacity() >= words) {
+    out.quads.swap(*donor);
+    out.quads.resize(words);  // no writes: the allocator leaves growth unwritten, shrinking keeps it
+    detail::releaseUnused(out.quads);
+  } else {
+    if (donor != nullptr) detail::freeScratch(*donor);
+    out.quads.resize(words);
+  }
+  // The fill runs over the same slices as the count (parallelFor's blocks depend on nt and the worker
+  // count only).
+  parallelFor(nt, out.workers, [&](std::size_t tb, std::size_t te, unsigned w) {
+    std::vector<std::size_t> next(at.begin() + out.list(w, 0), at.begin() + out.list(w, 0) + num_ranges);
+    index_t* quads = out.quads.data();
     for (std::size_t b = tb; b < te;) {
       const std::size_t e = std::min(te, stepEnd(b));
-      forEachEntry(b, e, [&](std::size_t r, const RangeLists::Quad& q) { mine[r][count[r]++] = q; });
+      forEachEntry(b, e, [&](std::size_t r, const index_t* s) {
+        index_t* q = quads + 4 * next[r]++;
+        q[0] = s[0];
+        q[1] = s[1];
+        q[2] = s[2];
+        q[3] = s[3];
+      });
       if (give_back != nullptr) detail::releaseSlice(give_back->data() + 4 * b, 16 * (e - b), 0, 1);
       b = e;
     }
@@ -1445,8 +1470,8 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgesOfRanges(RangeLists&& in, un
       // nearly always true with Morton ids.
       auto forEachOccurrence = [&](auto&& fn) {
         for (unsigned w = 0; w < in.workers; ++w)
-          for (const RangeLists::Quad& q : in.lists[std::size_t(w) * num_ranges + r]) {
-            const index_t* s = q.s;
+          for (std::size_t k = in.at[in.list(w, r)]; k < in.at[in.list(w, r) + 1]; ++k) {
+            const index_t* s = in.quads.data() + 4 * k;
             if (s[0] >= lo && s[0] < hi) {
               fn(s[0] - lo, s[1]);
               fn(s[0] - lo, s[2]);
@@ -1465,8 +1490,10 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgesOfRanges(RangeLists&& in, un
       bucket.resize(bucket_offset.back());
       fill.assign(bucket_offset.begin(), bucket_offset.end() - 1);
       forEachOccurrence([&](std::size_t i, index_t b) { bucket[fill[i]++] = b; });
-      for (unsigned w = 0; w < in.workers; ++w)
-        detail::freeScratch(in.lists[std::size_t(w) * num_ranges + r]);
+      for (unsigned w = 0; w < in.workers; ++w) {  // the range's lists are done with: pages back
+        const std::size_t i = in.list(w, r);
+        detail::releaseSlice(in.quads.data() + 4 * in.at[i], 16 * (in.at[i + 1] - in.at[i]), 0, 1);
+      }
       // Distinct b's moved to the front of the bucket, a by a; fill[a - lo] becomes the end of a's.
       std::size_t distinct = 0;
       for (std::size_t a = lo; a < hi; ++a) {

@@ -255,8 +255,11 @@ class DelaunayKernel3D {
   // The lists hold everything the edges need: `give_back`, when given, is tet_v itself, which the
   // caller frees next, and its pages go back to the system as they are listed.
   struct RangeLists;
+  // `donor`, when given, is an array the caller frees next (the adjacency), whose storage the lists
+  // take over when it is big enough.
   static RangeLists listByRange(const SlotArray<index_t>& tet_v, std::size_t num_points, unsigned num_threads,
-                                std::size_t first, std::size_t last, SlotArray<index_t>* give_back = nullptr);
+                                std::size_t first, std::size_t last, SlotArray<index_t>* give_back = nullptr,
+                                SlotArray<index_t>* donor = nullptr);
   // `edge_bound`, when not 0, bounds the edge count: on one thread the edges then go into one chunk.
   static EdgeChunks edgesOfRanges(RangeLists&& lists, unsigned num_threads, std::size_t edge_bound = 0);
   void initialTetrahedron(index_t a, index_t b, index_t c, index_t d);
