@@ -89,6 +89,33 @@ TEST(DelaunayKernel3D, SameGraphForAnyThreadCount) {
   for (unsigned t : {2u, 3u, 8u}) EXPECT_EQ(b3d_test::normalise(kernelEdges(k, t)), one) << t << " threads";
 }
 
+TEST(DelaunayKernel3D, ReleasingExtractionGivesTheSameEdges) {
+  // releaseIntoEdgeChunks lists into the adjacency's storage when it is big enough and into a new
+  // array when not (tiny inputs on many threads: most tetrahedra span several ranges and are listed
+  // up to three times), and on one thread writes one chunk reserved to Euler's bound. Each way must
+  // give edgeChunks()' edges, each once, by ascending smaller endpoint.
+  for (std::size_t n : {std::size_t(5), std::size_t(9), std::size_t(40), std::size_t(300), std::size_t(5000)})
+    for (unsigned t : {1u, 2u, 16u}) {
+      const auto pts = b3d_test::mortonSorted(b3d_test::uniformCube(n, 50 + static_cast<unsigned>(n)));
+      DelaunayKernel3D k;
+      k.setPoints(pts.data(), pts.size());
+      const auto order = dw::builder3d::brioOrder(pts);
+      k.build(order.data(), order.size());
+      const Edges expected = kernelEdges(k, 1);
+      const auto chunks = k.releaseIntoEdgeChunks(t);
+      Edges got;
+      for (const auto& c : chunks) got.insert(got.end(), c.begin(), c.end());
+      EXPECT_TRUE(std::is_sorted(got.begin(), got.end(),
+                                 [](const auto& a, const auto& b) { return a.first < b.first; }))
+          << n << " points, " << t << " threads";
+      const Edges unique = b3d_test::normalise(got);
+      EXPECT_EQ(unique.size(), got.size()) << n << " points, " << t << " threads: an edge twice";
+      EXPECT_EQ(unique, expected) << n << " points, " << t << " threads";
+      if (t == 1) EXPECT_EQ(chunks.size(), 1u) << n << " points";
+      EXPECT_FALSE(k.built());
+    }
+}
+
 TEST(DelaunayKernel3D, InsertionOrderDoesNotChangeTheGraph) {
   // With simulation of simplicity the perturbed Delaunay triangulation is unique, so even fully
   // degenerate input (a grid: all cells cospherical) gives the same edges whatever the order.
