@@ -89,7 +89,7 @@ TEST(DelaunayKernel3D, SameGraphForAnyThreadCount) {
   for (unsigned t : {2u, 3u, 8u}) EXPECT_EQ(b3d_test::normalise(kernelEdges(k, t)), one) << t << " threads";
 }
 
-TEST(DelaunayKernel3D, ReleasingExtractionGivesTheSameEdges) {
+TEST(DelaunayKernel3D, ReleasingExtractionGivesTheSameEdgesOnAnyThreadCount) {
   // releaseIntoEdgeChunks lists into the adjacency's storage when it is big enough and into a new
   // array when not (tiny inputs on many threads: most tetrahedra span several ranges and are listed
   // up to three times), and on one thread writes one chunk reserved to Euler's bound. Each way must
