@@ -1,5 +1,6 @@
 /// \file parallel_sort.h
-/// \brief Sorting a big vector on several threads (internal; the builders' Morton and BRIO orders).
+/// \brief Sorting a big vector on several threads (internal; the builders' Morton and BRIO orders),
+/// and sorting one that is nearly sorted already (the 3D kernel's batches of ids).
 ///
 /// Slices are sorted at once, then merged pairwise, the merges of one level at once. Simple, and
 /// enough for the few threads that an O(n log n) sort ahead of an O(n) build needs: the order must
@@ -16,6 +17,29 @@
 
 namespace dw {
 namespace detail {
+
+/// Sorts v ascending, in linear time when it is nearly sorted: an insertion sort with a budget of a
+/// few moves per element, then std::sort when the budget runs out (input in no particular order
+/// gives up early). The kernel's batches are BRIO rounds in Morton order over ids that follow the
+/// same curve, out of place only where the two grids round differently: std::sort took ~9 ms per
+/// 750k such ids, about 1 % of a 1M-point build on one thread, which sorts its last batch twice.
+template <class T, class A>
+void sortAdaptive(std::vector<T, A>& v) {
+  std::size_t budget = v.size() / 4 + 64;
+  for (std::size_t i = 1; i < v.size(); ++i) {
+    const T x = v[i];
+    std::size_t j = i;
+    for (; j > 0 && x < v[j - 1]; --j) {
+      if (budget-- == 0) {
+        v[j] = x;  // still a permutation
+        std::sort(v.begin(), v.end());
+        return;
+      }
+      v[j] = v[j - 1];
+    }
+    v[j] = x;
+  }
+}
 
 template <class T, class A, class Less>
 void parallelSort(std::vector<T, A>& v, Less less, unsigned num_threads) {

@@ -15,6 +15,7 @@
 
 #include "../page_memory.h"
 #include "../parallel_bucket.h"
+#include "../parallel_sort.h"
 #include "pcl_delaunay_walk/core/builder3d/affine_span.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/predicates_3d.h"
@@ -1038,7 +1039,7 @@ void DelaunayKernel3D::insertParallel(const index_t* ids, std::size_t m, unsigne
 
 void DelaunayKernel3D::insertBatch(std::vector<index_t> pending, unsigned num_threads) {
   const std::size_t m = pending.size();
-  std::sort(pending.begin(), pending.end());
+  detail::sortAdaptive(pending);
   // Small batches use fewer threads (min_points_per_thread_, see the header); two threads already
   // share a batch of half that many points. When a pass stalls (under a quarter of its points went in),
   // the rest goes in on this thread: what is left then is held up by cavities that cross cells whatever
@@ -1067,7 +1068,7 @@ void DelaunayKernel3D::insertBatch(std::vector<index_t> pending, unsigned num_th
   detail::releaseUnused(tet_v_);
   detail::releaseUnused(tet_n_);
   detail::releaseUnused(mark_);
-  std::sort(pending.begin(), pending.end());
+  detail::sortAdaptive(pending);
   for (index_t v : pending) insert(v);
 }
 
