@@ -8,6 +8,7 @@
 #include <numeric>
 #include <random>
 
+#include "../../src/core/parallel_sort.h"
 #include "builder3d/builder3d_test_util.h"
 #include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
 #include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
@@ -61,6 +62,29 @@ TEST(InsertionOrder, SameOrderWhateverTheIdsOrder) {
   const double before = double(rounds.back() - rounds[rounds.size() - 2]) / pts.size();
   EXPECT_NEAR(last, 0.75, 0.02);
   EXPECT_NEAR(before, 0.1875, 0.02);
+}
+
+TEST(InsertionOrder, AdaptiveSortSortsAnyInput) {
+  // The kernel's batches arrive nearly sorted; anything else must still come out sorted.
+  std::mt19937 rng(11);
+  std::vector<std::vector<dw::index_t>> inputs = {{}, {7}, {3, 3, 1, 3}};
+  std::vector<dw::index_t> v(20000);
+  std::iota(v.begin(), v.end(), 0u);
+  inputs.push_back(v);  // sorted
+  for (std::size_t i = 0; i + 1 < v.size(); i += 37) std::swap(v[i], v[i + 1]);
+  inputs.push_back(v);  // nearly sorted
+  std::reverse(v.begin(), v.end());
+  inputs.push_back(v);  // reversed: the budget runs out
+  std::shuffle(v.begin(), v.end(), rng);
+  inputs.push_back(v);  // shuffled
+  for (auto& x : v) x %= 50;
+  inputs.push_back(v);  // many repeats
+  for (auto in : inputs) {
+    auto expected = in;
+    std::sort(expected.begin(), expected.end());
+    dw::detail::sortAdaptive(in);
+    EXPECT_EQ(in, expected) << in.size() << " ids";
+  }
 }
 
 TEST(DelaunayKernel3D, UniformIsValidAndEdgesAreUnique) {
