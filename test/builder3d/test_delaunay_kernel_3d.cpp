@@ -44,24 +44,34 @@ TEST(InsertionOrder, SameOrderWhateverTheIdsOrder) {
   const auto pts = dw::mortonSortedDistinct(b3d_test::uniformCube(20000, 4));
   std::vector<dw::index_t> ascending(pts.size());
   std::iota(ascending.begin(), ascending.end(), 0u);
-  const auto reference = dw::builder3d::brioOrder(pts, ascending);
-  auto sorted_copy = reference;
-  std::sort(sorted_copy.begin(), sorted_copy.end());
-  ASSERT_EQ(sorted_copy, ascending) << "not a permutation";
-  auto nearly = ascending;
-  for (std::size_t i = 0; i + 1 < nearly.size(); i += 97) std::swap(nearly[i], nearly[i + 1]);
-  EXPECT_EQ(dw::builder3d::brioOrder(pts, nearly), reference);
-  auto shuffled = ascending;
-  std::shuffle(shuffled.begin(), shuffled.end(), std::mt19937(7));
-  EXPECT_EQ(dw::builder3d::brioOrder(pts, shuffled), reference);
-  std::vector<std::size_t> rounds;
-  EXPECT_EQ(dw::builder3d::brioOrder(pts, rounds, 0, 2), reference);
-  ASSERT_GE(rounds.size(), 3u);
-  // Rounds grow fourfold: the last holds about 3/4 of the points, the one before about 3/16.
-  const double last = double(pts.size() - rounds.back()) / pts.size();
-  const double before = double(rounds.back() - rounds[rounds.size() - 2]) / pts.size();
-  EXPECT_NEAR(last, 0.75, 0.02);
-  EXPECT_NEAR(before, 0.1875, 0.02);
+  using dw::builder3d::BrioGrowth;
+  for (BrioGrowth growth : {BrioGrowth::kDoubling, BrioGrowth::kFourfold}) {
+    const auto reference = dw::builder3d::brioOrder(pts, ascending, 0, growth);
+    auto sorted_copy = reference;
+    std::sort(sorted_copy.begin(), sorted_copy.end());
+    ASSERT_EQ(sorted_copy, ascending) << "not a permutation";
+    auto nearly = ascending;
+    for (std::size_t i = 0; i + 1 < nearly.size(); i += 97) std::swap(nearly[i], nearly[i + 1]);
+    EXPECT_EQ(dw::builder3d::brioOrder(pts, nearly, 0, growth), reference);
+    auto shuffled = ascending;
+    std::shuffle(shuffled.begin(), shuffled.end(), std::mt19937(7));
+    EXPECT_EQ(dw::builder3d::brioOrder(pts, shuffled, 0, growth), reference);
+    if (growth == BrioGrowth::kDoubling) continue;
+    // The whole-build forms grow fourfold: the last round holds about 3/4 of the points, the one
+    // before about 3/16.
+    EXPECT_EQ(dw::builder3d::brioOrder(pts), reference);
+    std::vector<std::size_t> rounds;
+    EXPECT_EQ(dw::builder3d::brioOrder(pts, rounds, 0, 2), reference);
+    ASSERT_GE(rounds.size(), 3u);
+    const double last = double(pts.size() - rounds.back()) / pts.size();
+    const double before = double(rounds.back() - rounds[rounds.size() - 2]) / pts.size();
+    EXPECT_NEAR(last, 0.75, 0.02);
+    EXPECT_NEAR(before, 0.1875, 0.02);
+  }
+  // Subsets double by default.
+  const auto doubling = dw::builder3d::brioOrder(pts, ascending);
+  EXPECT_EQ(doubling, dw::builder3d::brioOrder(pts, ascending, 0, dw::builder3d::BrioGrowth::kDoubling));
+  EXPECT_NE(doubling, dw::builder3d::brioOrder(pts));
 }
 
 TEST(InsertionOrder, AdaptiveSortSortsAnyInput) {

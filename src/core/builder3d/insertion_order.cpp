@@ -74,34 +74,34 @@ bool sortNearlySorted(KeyIds& kv, unsigned workers) {
 // The subset form, also reporting where each round starts.
 std::vector<index_t> brioOrderInRounds(const std::vector<Vec3f>& points, std::vector<index_t> ids,
                                        std::uint64_t seed, std::vector<std::size_t>& round_begin,
-                                       unsigned num_threads);
+                                       unsigned num_threads, BrioGrowth growth);
 
 }  // namespace
 
-std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::uint64_t seed) {
+std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::uint64_t seed, BrioGrowth growth) {
   std::vector<index_t> ids(points.size());
   for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = static_cast<index_t>(i);
-  return brioOrder(points, std::move(ids), seed);
+  return brioOrder(points, std::move(ids), seed, growth);
 }
 
-std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::vector<index_t> ids,
-                               std::uint64_t seed) {
+std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::vector<index_t> ids, std::uint64_t seed,
+                               BrioGrowth growth) {
   std::vector<std::size_t> unused;
-  return brioOrderInRounds(points, std::move(ids), seed, unused, 1);
+  return brioOrderInRounds(points, std::move(ids), seed, unused, 1, growth);
 }
 
 std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::vector<std::size_t>& round_begin,
                                std::uint64_t seed, unsigned num_threads) {
   std::vector<index_t> ids(points.size());
   for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = static_cast<index_t>(i);
-  return brioOrderInRounds(points, std::move(ids), seed, round_begin, num_threads);
+  return brioOrderInRounds(points, std::move(ids), seed, round_begin, num_threads, BrioGrowth::kFourfold);
 }
 
 namespace {
 
 std::vector<index_t> brioOrderInRounds(const std::vector<Vec3f>& points, std::vector<index_t> ids,
                                        std::uint64_t seed, std::vector<std::size_t>& round_begin,
-                                       unsigned num_threads) {
+                                       unsigned num_threads, BrioGrowth growth) {
   round_begin.clear();
   const std::size_t n = ids.size();
   std::vector<index_t> order(std::move(ids));
@@ -136,21 +136,22 @@ std::vector<index_t> brioOrderInRounds(const std::vector<Vec3f>& points, std::ve
       std::max({double(hi[0]) - lo[0], double(hi[1]) - lo[1], double(hi[2]) - lo[2], 1e-30});
   const double scale = double((1u << 21) - 1) / extent;
 
-  // Rounds: the first small enough to be cheap whatever its order, then growing fourfold. Round R-1
-  // takes a point with probability 3/4, R-2 with 3/16, ...; round 0 the remainder. Fewer rounds than
-  // doubling ones: each round sweeps the whole mesh built so far, and with fourfold growth more of a
-  // cavity was made by the same sweep, still in cache. 1M uniform points: insertion -7 % on one
-  // thread and -8 % on two; the dragon -7 % and -11 % (medians of 5-8 alternated runs; growth by 8
-  // was faster on uniform points, slower on the dragon, whose cavity work rose 8 %).
-  constexpr unsigned kGrowthBits = 2;  // each round holds 2^kGrowthBits - 1 times all before it
+  // Rounds: the first small enough to be cheap whatever its order, then growing by 2^growth_bits.
+  // Fourfold: round R-1 takes a point with probability 3/4, R-2 with 3/16, ...; round 0 the
+  // remainder. Fewer rounds than doubling ones: each round sweeps the whole mesh built so far, and
+  // with fourfold growth more of a cavity was made by the same sweep, still in cache. 1M uniform
+  // points: insertion -7 % on one thread and -8 % on two; the dragon -7 % and -11 % (medians of 5-8
+  // alternated runs; growth by 8 was faster on uniform points, slower on the dragon, whose cavity
+  // work rose 8 %).
+  const unsigned growth_bits = static_cast<unsigned>(growth);  // each round 2^bits - 1 times all before it
   unsigned rounds = 1;
-  while (rounds < 15 && (n >> (kGrowthBits * rounds)) > 512) ++rounds;
+  while (rounds < 15 && (n >> (growth_bits * rounds)) > 512) ++rounds;
   auto roundOf = [&](index_t i) {
-    // Trailing zero bits of a hash, in groups of kGrowthBits, at most rounds - 1 groups (a count, not
+    // Trailing zero bits of a hash, in groups of growth_bits, at most rounds - 1 groups (a count, not
     // a loop: how far a loop runs is a coin flip to the branch predictor).
     const std::uint64_t h =
-        splitmix64(i ^ (seed * 0xD1B54A32D192ED03ull)) | (std::uint64_t(1) << (kGrowthBits * (rounds - 1)));
-    return rounds - 1 - static_cast<unsigned>(__builtin_ctzll(h)) / kGrowthBits;
+        splitmix64(i ^ (seed * 0xD1B54A32D192ED03ull)) | (std::uint64_t(1) << (growth_bits * (rounds - 1)));
+    return rounds - 1 - static_cast<unsigned>(__builtin_ctzll(h)) / growth_bits;
   };
 
   // One key per point: its round above its Morton code; ids break ties, so the order is unique. The
