@@ -117,7 +117,9 @@ double independentBuilds(const std::vector<dw::Vec3f>& pts, unsigned threads) {
       const std::size_t b = pts.size() * i / threads, e = pts.size() * (i + 1) / threads;
       std::vector<dw::index_t> ids(e - b);
       for (std::size_t k = b; k < e; ++k) ids[k - b] = static_cast<dw::index_t>(k);
-      const std::vector<dw::index_t> order = dw::builder3d::brioOrder(pts, ids);
+      // Each is a whole build, ordered as the shared one is (fourfold rounds).
+      const std::vector<dw::index_t> order =
+          dw::builder3d::brioOrder(pts, ids, 0, dw::builder3d::BrioGrowth::kFourfold);
       dw::builder3d::DelaunayKernel3D kernel;
       kernel.setPoints(pts.data(), pts.size());
       kernel.build(order.data(), order.size());
