@@ -18,27 +18,36 @@
 namespace dw {
 namespace detail {
 
-/// Sorts v ascending, in linear time when it is nearly sorted: an insertion sort with a budget of a
-/// few moves per element, then std::sort when the budget runs out (input in no particular order
-/// gives up early). The kernel's batches are BRIO rounds in Morton order over ids that follow the
-/// same curve, out of place only where the two grids round differently: std::sort took ~9 ms per
-/// 750k such ids, about 1 % of a 1M-point build on one thread, which sorts its last batch twice.
+/// Insertion sort of [first, last) with a budget of a few moves per element, so that input in no
+/// particular order gives up early: true when sorted, false when the budget ran out (the range is
+/// then still a permutation of what it was, and the caller sorts it some other way).
+template <class It>
+bool insertionSortWithBudget(It first, It last) {
+  const std::size_t n = static_cast<std::size_t>(last - first);
+  std::size_t budget = n / 4 + 64;
+  for (std::size_t i = 1; i < n; ++i) {
+    const auto x = first[i];
+    std::size_t j = i;
+    for (; j > 0 && x < first[j - 1]; --j) {
+      if (budget-- == 0) {
+        first[j] = x;  // still a permutation
+        return false;
+      }
+      first[j] = first[j - 1];
+    }
+    first[j] = x;
+  }
+  return true;
+}
+
+/// Sorts v ascending, in linear time when it is nearly sorted (insertionSortWithBudget, then
+/// std::sort when the budget runs out). The kernel's batches are BRIO rounds in Morton order over
+/// ids that follow the same curve, out of place only where the two grids round differently:
+/// std::sort took ~9 ms per 750k such ids, about 1 % of a 1M-point build on one thread, which sorts
+/// its last batch twice.
 template <class T, class A>
 void sortAdaptive(std::vector<T, A>& v) {
-  std::size_t budget = v.size() / 4 + 64;
-  for (std::size_t i = 1; i < v.size(); ++i) {
-    const T x = v[i];
-    std::size_t j = i;
-    for (; j > 0 && x < v[j - 1]; --j) {
-      if (budget-- == 0) {
-        v[j] = x;  // still a permutation
-        std::sort(v.begin(), v.end());
-        return;
-      }
-      v[j] = v[j - 1];
-    }
-    v[j] = x;
-  }
+  if (!insertionSortWithBudget(v.begin(), v.end())) std::sort(v.begin(), v.end());
 }
 
 template <class T, class A, class Less>

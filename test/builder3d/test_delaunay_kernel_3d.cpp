@@ -145,7 +145,9 @@ TEST(DelaunayKernel3D, ReleasingExtractionGivesTheSameEdgesOnAnyThreadCount) {
       const Edges unique = b3d_test::normalise(got);
       EXPECT_EQ(unique.size(), got.size()) << n << " points, " << t << " threads: an edge twice";
       EXPECT_EQ(unique, expected) << n << " points, " << t << " threads";
-      if (t == 1) EXPECT_EQ(chunks.size(), 1u) << n << " points";
+      if (t == 1) {
+        EXPECT_EQ(chunks.size(), 1u) << n << " points";
+      }
       EXPECT_FALSE(k.built());
     }
 }

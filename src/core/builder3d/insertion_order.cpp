@@ -47,21 +47,7 @@ bool sortNearlySorted(KeyIds& kv, unsigned workers) {
   const std::size_t n = kv.size();
   std::vector<char> done(workers, 0);
   parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned w) {
-    // Moves allowed: a few per point, so that input in no particular order gives up early.
-    std::size_t budget = (e - b) / 4 + 64;
-    for (std::size_t i = b + 1; i < e; ++i) {
-      const KeyId x = kv[i];
-      std::size_t j = i;
-      for (; j > b && x < kv[j - 1]; --j) {
-        if (budget-- == 0) {
-          kv[j] = x;  // still a permutation
-          return;
-        }
-        kv[j] = kv[j - 1];
-      }
-      kv[j] = x;
-    }
-    done[w] = 1;
+    done[w] = detail::insertionSortWithBudget(kv.begin() + b, kv.begin() + e);
   });
   for (unsigned w = 0; w < workers; ++w)
     if (!done[w]) return false;
