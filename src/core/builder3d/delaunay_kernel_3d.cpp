@@ -418,6 +418,8 @@ constexpr index_t kRestartCandidates = 6;
 constexpr std::size_t kSlotChunk = 256;
 // Pending points sampled for a pass's cuts (at most about this many).
 constexpr std::size_t kSplitSample = 1 << 15;
+// Flags a candidate boundary face (BoundaryFace::face) whose neighbour is another thread's.
+constexpr std::uint32_t kForeignCandidate = 4;
 
 }  // namespace
 
@@ -692,9 +694,20 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
   }
 
   const predicates::BroadcastPoint query(p);
-  // Cavity: every tetrahedron whose (perturbed) circumsphere contains v; connected, found by BFS.
-  // Marks are set only on owned tetrahedra; a foreign neighbour is tested each time it is reached.
-  // The cavity list doubles as the search's queue.
+  // Cavity: every tetrahedron whose (perturbed) circumsphere contains v; connected, found by a
+  // breadth-first search run level by level. Each level first visits the faces of the cavity
+  // tetrahedra found by the last one, queueing every neighbour not seen before (marked queued) and
+  // listing every face whose neighbour is not in the cavity as a candidate boundary face; then it
+  // tests the queued neighbours, one after another. Whether a neighbour was seen before is a coin flip
+  // (~19 of ~63 visits per point): tested at each visit, as before, that branch was mispredicted ~22
+  // times per inserted point, more than all the insertion's other branches together. Queued, it is a
+  // masked store; the levels' loop exits mispredict instead, a few times per cavity, and a candidate
+  // is a boundary face when its neighbour ended outside (filtered after the search). Cachegrind, 100k
+  // points: 40 -> 26 simulated mispredictions and 4 % more instructions per inserted point; 1M
+  // points inserted 3 % faster on one thread. The visits and the tests come in the same order as in
+  // a search that tests at each visit, so the cavity, the boundary and the new tetrahedra do too.
+  // Marks are set only on owned tetrahedra; a foreign neighbour is tested at the visit, each time it
+  // is reached. The cavity list doubles as the search's queue of levels.
   auto& cavity = w.cavity;
   auto& boundary = w.boundary;
   // The arrays through raw pointers in locals (none is resized during the search): through the
@@ -703,16 +716,16 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
   const std::uint32_t* const tet_n = tet_n_.data();
   Mark* const mark = mark_.data();
   std::uint64_t tests = 0;
-  // The search's four lists are filled through raw pointers with their own counts, and every
-  // neighbour is written to the list it may join, which then advances by a flag: whether a
-  // neighbour is in the cavity already, and whether it is in conflict, are coin flips for the branch
-  // predictor. The lists' element types are trivial and their allocator leaves resized storage
-  // unwritten, so sizing a list to its capacity costs nothing; room for four more entries is made
-  // before each tetrahedron's faces.
+  // The search's lists are filled through raw pointers with their own counts, and every entry is
+  // written to the list it may join, which then advances by a flag. The lists' element types are
+  // trivial and their allocator leaves resized storage unwritten, so sizing a list to its capacity
+  // costs nothing; room is made before each level for every face it may visit.
   auto& outside = w.outside;
   auto& entry = w.cavity_entry;  // per cavity tetrahedron, the face it was reached through
-  std::size_t num_cavity = 0, num_outside = 0, num_boundary = 0;
+  auto& queued = w.queued;       // neighbour codes of the level's queued tetrahedra (n * 4 + n's face)
+  std::size_t num_cavity = 0, num_outside = 0, num_candidates = 0, num_queued = 0;
   index_t *cav = nullptr, *out = nullptr;
+  std::uint32_t* que = nullptr;
   std::uint8_t* ent = nullptr;
   BoundaryFace* bnd = nullptr;
   std::size_t room = 0;  // entries every list can take before the next makeRoom
@@ -727,59 +740,52 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
       if (list.size() < list.capacity()) list.resize(list.capacity());
       return list.data();
     };
-    const std::size_t needed = std::max({num_cavity, num_outside, num_boundary}) + extra;
+    const std::size_t needed = std::max({num_cavity, num_outside, num_candidates, num_queued}) + extra;
     cav = grow(cavity, needed);
     ent = grow(entry, needed);
     out = grow(outside, needed);
     bnd = grow(boundary, needed);
-    room = std::min({cavity.size(), entry.size(), outside.size(), boundary.size()});
+    que = grow(queued, needed);
+    room = std::min({cavity.size(), entry.size(), outside.size(), boundary.size(), queued.size()});
   };
   auto makeRoom = [&](std::size_t extra) __attribute__((always_inline)) {
-    if (num_cavity + extra > room || num_outside + extra > room || num_boundary + extra > room)
-      growLists(extra);
+    if (std::max({num_cavity, num_outside, num_candidates, num_queued}) + extra > room) growLists(extra);
   };
   auto clearMarks = [&] {
     for (std::size_t k = 0; k < num_outside; ++k) mark[out[k]] = Mark::kUnknown;
     for (std::size_t k = 0; k < num_cavity; ++k) mark[cav[k]] = Mark::kUnknown;
+    for (std::size_t k = 0; k < num_queued; ++k) mark[que[k] >> 2] = Mark::kUnknown;  // not yet tested
   };
   makeRoom(4);
   mark[t] = Mark::kCavity;
   cav[num_cavity] = t;
   ent[num_cavity++] = 0;  // the first tetrahedron's face 0 is visited first, as if it came through it
-  // Visits face f of cavity tetrahedron c (vertex ids cv), whose neighbour code is nc: tests the
-  // neighbour once, lists it, and records the face when it is on the boundary. False: the cavity
-  // reaches a foreign tetrahedron (a parallel pass defers v).
+  // Visits face f of cavity tetrahedron c (vertex ids cv), whose neighbour code is nc: queues the
+  // neighbour if it is new and lists the face as a candidate unless the neighbour is in the cavity.
+  // False: the cavity reaches a foreign tetrahedron (a parallel pass defers v).
   auto visitFace = [&](const index_t* cv, unsigned f, std::uint32_t nc) __attribute__((always_inline)) {
-    const index_t n = nc >> 2;
-    bool on_boundary;
+    BoundaryFace& bf = bnd[num_candidates];
+    for (unsigned j = 0; j < 4; ++j) bf.v[j] = cv[j];
+    bf.v[f] = v;
+    bf.outer = nc;
     // n shares face f's three owned vertices with c: it is owned when its fourth vertex is.
     if (Owner::kShared && !own.ownsVertex(tet_v[nc])) {
       // Its vertices are stable: it shares this face with an owned tetrahedron, so nobody owns it.
       ++tests;
-      if (inConflict(n, v, query)) return false;
-      on_boundary = true;
-    } else {
-      const Mark m = mark[n];
-      bool in = false;
-      if (m == Mark::kUnknown) {
-        ++tests;
-        in = inConflict(n, v, query);
-        mark[n] = in ? Mark::kCavity : Mark::kOutside;
-        cav[num_cavity] = n;
-        ent[num_cavity] = static_cast<std::uint8_t>(nc & 3u);  // n's face towards c
-        num_cavity += in;
-        out[num_outside] = n;
-        num_outside += !in;
-        __builtin_prefetch(&tet_n[nc], 1);  // re-linked to a new tetrahedron below, if outside
-      }
-      on_boundary = (m == Mark::kOutside) | ((m == Mark::kUnknown) & !in);
+      if (inConflict(nc >> 2, v, query)) return false;
+      bf.face = f | kForeignCandidate;  // a boundary face; its mark is another thread's to read
+      ++num_candidates;
+      return true;
     }
-    BoundaryFace& bf = bnd[num_boundary];
-    for (unsigned j = 0; j < 4; ++j) bf.v[j] = cv[j];
-    bf.v[f] = v;
-    bf.outer = nc;
+    const index_t n = nc >> 2;
+    const Mark m = mark[n];
+    const bool fresh = m == Mark::kUnknown;
+    mark[n] = fresh ? Mark::kQueued : m;
+    que[num_queued] = nc;
+    num_queued += fresh;
+    __builtin_prefetch(&tet_v[nc & ~3u]);  // tested below, if queued
     bf.face = f;
-    num_boundary += on_boundary;
+    num_candidates += m != Mark::kCavity;
     return true;
   };
   auto abandon = [&] {
@@ -797,36 +803,61 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
     for (unsigned j = 0; j < 4; ++j) cv[j] = tet_v[4 * std::size_t(t) + j];
     if (!visitFace(cv, 0, tet_n[4 * std::size_t(t)])) return abandon();
   }
-  std::size_t prefetched = 0;  // cavity tetrahedra before this one had their neighbours prefetched
-  for (std::size_t next = 0; next < num_cavity; ++next) {
-    makeRoom(4);
-    const index_t c = cav[next];
-    const unsigned* const faces = kOtherThree[ent[next]];
-    // The neighbours are scattered over a structure far larger than the caches: start all their
-    // loads now so that the misses overlap instead of following one another.
-    std::uint32_t ncs[3];
-    for (unsigned i = 0; i < 3; ++i) ncs[i] = tet_n[4 * std::size_t(c) + faces[i]];
-    if (next >= prefetched)  // not done one tetrahedron ahead (below) while c was not yet listed
-      for (unsigned i = 0; i < 3; ++i) {
-        __builtin_prefetch(&tet_v[ncs[i] & ~3u]);
-        __builtin_prefetch(&mark[ncs[i] >> 2]);
+  for (std::size_t level = 0; level < num_cavity;) {
+    const std::size_t level_end = num_cavity;
+    makeRoom(3 * (level_end - level));
+    for (std::size_t next = level; next < level_end; ++next) {
+      const index_t c = cav[next];
+      const unsigned* const faces = kOtherThree[ent[next]];
+      // The neighbours are scattered over a structure far larger than the caches: start all their
+      // loads now so that the misses overlap instead of following one another, and the next
+      // tetrahedron's too.
+      std::uint32_t ncs[3];
+      for (unsigned i = 0; i < 3; ++i) ncs[i] = tet_n[4 * std::size_t(c) + faces[i]];
+      {  // the level's last one prefetches its own neighbours again rather than test for a next one
+        const std::size_t ahead_at = next + 1 < level_end ? next + 1 : next;
+        const std::uint32_t* ahead = &tet_n[4 * std::size_t(cav[ahead_at])];
+        for (unsigned i = 0; i < 4; ++i) {
+          __builtin_prefetch(&mark[ahead[i] >> 2]);
+          if (Owner::kShared) __builtin_prefetch(&tet_v[ahead[i] & ~3u]);  // its ownership is read first
+        }
       }
-    // And one tetrahedron ahead: issued here, those loads were still in flight when the conflict
-    // tests read them (the load of a neighbour's vertex ids held 15 % of this function's samples).
-    if (next + 1 < num_cavity) {
-      const std::uint32_t* ahead = &tet_n[4 * std::size_t(cav[next + 1])];
-      for (unsigned i = 0; i < 4; ++i) {
-        const std::uint32_t nc = ahead[i];
-        __builtin_prefetch(&tet_v[nc & ~3u]);
-        __builtin_prefetch(&mark[nc >> 2]);
-      }
-      prefetched = next + 2;
-    }
-    index_t cv[4];
-    for (unsigned j = 0; j < 4; ++j) cv[j] = tet_v[4 * std::size_t(c) + j];
+      index_t cv[4];
+      for (unsigned j = 0; j < 4; ++j) cv[j] = tet_v[4 * std::size_t(c) + j];
 #pragma GCC unroll 3
-    for (unsigned i = 0; i < 3; ++i)
-      if (!visitFace(cv, faces[i], ncs[i])) return abandon();
+      for (unsigned i = 0; i < 3; ++i)
+        if (!visitFace(cv, faces[i], ncs[i])) return abandon();
+    }
+    // The level's tests: independent of one another, and no branch depends on their outcome.
+    for (std::size_t k = 0; k < num_queued; ++k) {
+      const std::uint32_t nc = que[k];
+      const index_t n = nc >> 2;
+      ++tests;
+      const bool in = inConflict(n, v, query);
+      mark[n] = in ? Mark::kCavity : Mark::kOutside;
+      cav[num_cavity] = n;
+      ent[num_cavity] = static_cast<std::uint8_t>(nc & 3u);  // n's face towards the tetrahedron before
+      num_cavity += in;
+      out[num_outside] = n;
+      num_outside += !in;
+      __builtin_prefetch(&tet_n[nc], 1);  // re-linked to a new tetrahedron below, if outside
+    }
+    num_queued = 0;
+    level = level_end;
+  }
+  // The boundary: the candidates whose neighbour ended outside (or is foreign), compacted in place.
+  std::size_t num_boundary = 0;
+  for (std::size_t k = 0; k < num_candidates; ++k) {
+    const BoundaryFace bf = bnd[k];
+    bool keep;
+    if (Owner::kShared && (bf.face & kForeignCandidate) != 0)
+      keep = true;
+    else
+      keep = mark[bf.outer >> 2] == Mark::kOutside;
+    BoundaryFace& kept = bnd[num_boundary];
+    kept = bf;
+    if (Owner::kShared) kept.face = bf.face & 3u;
+    num_boundary += keep;
   }
   cavity.resize(num_cavity);
   outside.resize(num_outside);
@@ -1614,7 +1645,7 @@ std::size_t DelaunayKernel3D::memoryBytes() const {
           seq_.link_direct.capacity() + seq_.made.capacity() + seq_.boundary_vertices.capacity()) *
              sizeof(std::uint32_t) +
          mark_.capacity() + free_.capacity() * sizeof(index_t) + seq_.link.capacity() * sizeof(LinkEntry) +
-         (seq_.cavity.capacity() + seq_.outside.capacity()) * 4 +
+         (seq_.cavity.capacity() + seq_.outside.capacity() + seq_.queued.capacity()) * 4 +
          seq_.boundary.capacity() * sizeof(BoundaryFace);
 }
 

@@ -191,6 +191,7 @@ class DelaunayKernel3D {
     SlotArray<index_t> cavity, outside;
     SlotArray<std::uint8_t> cavity_entry;  // per cavity tetrahedron, the face it was reached through
     SlotArray<BoundaryFace> boundary;
+    SlotArray<std::uint32_t> queued;  // a search level's neighbours to test (neighbour codes)
     // The linking's scratch, grown but never shrunk (its counts are the insertion's locals): resized to
     // each insertion's count, the growth's zero fill and its out-of-line call cost ~130 instructions
     // per point.
@@ -299,7 +300,7 @@ class DelaunayKernel3D {
   SlotArray<std::uint32_t> tet_n_;  // 4 per tetrahedron: neighbour tet * 4 + the shared face's index there
   // Per tetrahedron, during one insertion. Not a char type, so that its stores do not force the
   // compiler to reload everything else (char may alias any object).
-  enum class Mark : std::uint8_t { kUnknown, kCavity, kOutside };
+  enum class Mark : std::uint8_t { kUnknown, kCavity, kOutside, kQueued };
   SlotArray<Mark> mark_;
   std::vector<index_t> free_;         // recycled tetrahedra
   std::vector<std::uint32_t> birth_;  // per tetrahedron, with track_births_
