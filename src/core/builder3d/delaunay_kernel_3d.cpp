@@ -720,11 +720,12 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
   // written to the list it may join, which then advances by a flag. The lists' element types are
   // trivial and their allocator leaves resized storage unwritten, so sizing a list to its capacity
   // costs nothing; room is made before each level for every face it may visit.
-  auto& outside = w.outside;
   auto& entry = w.cavity_entry;  // per cavity tetrahedron, the face it was reached through
-  auto& queued = w.queued;       // neighbour codes of the level's queued tetrahedra (n * 4 + n's face)
-  std::size_t num_cavity = 0, num_outside = 0, num_candidates = 0, num_queued = 0;
-  index_t *cav = nullptr, *out = nullptr;
+  // Every neighbour queued (n * 4 + n's face towards the tetrahedron that queued it): the cavity
+  // but its first tetrahedron, the tetrahedra found outside, and a level's still untested ones.
+  auto& queued = w.queued;
+  std::size_t num_cavity = 0, num_candidates = 0, num_queued = 0, num_tested = 0;
+  index_t* cav = nullptr;
   std::uint32_t* que = nullptr;
   std::uint8_t* ent = nullptr;
   BoundaryFace* bnd = nullptr;
@@ -740,21 +741,19 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
       if (list.size() < list.capacity()) list.resize(list.capacity());
       return list.data();
     };
-    const std::size_t needed = std::max({num_cavity, num_outside, num_candidates, num_queued}) + extra;
+    const std::size_t needed = std::max({num_cavity, num_candidates, num_queued}) + extra;
     cav = grow(cavity, needed);
     ent = grow(entry, needed);
-    out = grow(outside, needed);
     bnd = grow(boundary, needed);
     que = grow(queued, needed);
-    room = std::min({cavity.size(), entry.size(), outside.size(), boundary.size(), queued.size()});
+    room = std::min({cavity.size(), entry.size(), boundary.size(), queued.size()});
   };
   auto makeRoom = [&](std::size_t extra) __attribute__((always_inline)) {
-    if (std::max({num_cavity, num_outside, num_candidates, num_queued}) + extra > room) growLists(extra);
+    if (std::max({num_cavity, num_candidates, num_queued}) + extra > room) growLists(extra);
   };
-  auto clearMarks = [&] {
-    for (std::size_t k = 0; k < num_outside; ++k) mark[out[k]] = Mark::kUnknown;
-    for (std::size_t k = 0; k < num_cavity; ++k) mark[cav[k]] = Mark::kUnknown;
-    for (std::size_t k = 0; k < num_queued; ++k) mark[que[k] >> 2] = Mark::kUnknown;  // not yet tested
+  auto clearMarks = [&] {  // one loop: each exit of a loop of varying length is mispredicted
+    mark[t] = Mark::kUnknown;
+    for (std::size_t k = 0; k < num_queued; ++k) mark[que[k] >> 2] = Mark::kUnknown;
   };
   makeRoom(4);
   mark[t] = Mark::kCavity;
@@ -829,7 +828,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
         if (!visitFace(cv, faces[i], ncs[i])) return abandon();
     }
     // The level's tests: independent of one another, and no branch depends on their outcome.
-    for (std::size_t k = 0; k < num_queued; ++k) {
+    for (std::size_t k = num_tested; k < num_queued; ++k) {
       const std::uint32_t nc = que[k];
       const index_t n = nc >> 2;
       ++tests;
@@ -838,11 +837,9 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
       cav[num_cavity] = n;
       ent[num_cavity] = static_cast<std::uint8_t>(nc & 3u);  // n's face towards the tetrahedron before
       num_cavity += in;
-      out[num_outside] = n;
-      num_outside += !in;
       __builtin_prefetch(&tet_n[nc], 1);  // re-linked to a new tetrahedron below, if outside
     }
-    num_queued = 0;
+    num_tested = num_queued;
     level = level_end;
   }
   // The boundary: the candidates whose neighbour ended outside (or is foreign), compacted in place.
@@ -860,7 +857,6 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
     num_boundary += keep;
   }
   cavity.resize(num_cavity);
-  outside.resize(num_outside);
   boundary.resize(num_boundary);
   w.stats.conflict_tests += tests;
   clearMarks();
@@ -1645,7 +1641,7 @@ std::size_t DelaunayKernel3D::memoryBytes() const {
           seq_.link_direct.capacity() + seq_.made.capacity() + seq_.boundary_vertices.capacity()) *
              sizeof(std::uint32_t) +
          mark_.capacity() + free_.capacity() * sizeof(index_t) + seq_.link.capacity() * sizeof(LinkEntry) +
-         (seq_.cavity.capacity() + seq_.outside.capacity() + seq_.queued.capacity()) * 4 +
+         (seq_.cavity.capacity() + seq_.queued.capacity()) * 4 +
          seq_.boundary.capacity() * sizeof(BoundaryFace);
 }
 

@@ -188,10 +188,10 @@ class DelaunayKernel3D {
   // Aligned to keep one thread's hot counters and vector headers off another's cache lines.
   struct alignas(128) Worker {
     // The cavity search's lists (insertCore fills them through raw pointers, sized to capacity).
-    SlotArray<index_t> cavity, outside;
+    SlotArray<index_t> cavity;
     SlotArray<std::uint8_t> cavity_entry;  // per cavity tetrahedron, the face it was reached through
     SlotArray<BoundaryFace> boundary;
-    SlotArray<std::uint32_t> queued;  // a search level's neighbours to test (neighbour codes)
+    SlotArray<std::uint32_t> queued;  // every neighbour the search queued (neighbour codes)
     // The linking's scratch, grown but never shrunk (its counts are the insertion's locals): resized to
     // each insertion's count, the growth's zero fill and its out-of-line call cost ~130 instructions
     // per point.
