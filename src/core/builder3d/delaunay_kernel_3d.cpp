@@ -805,6 +805,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
   for (std::size_t level = 0; level < num_cavity;) {
     const std::size_t level_end = num_cavity;
     makeRoom(3 * (level_end - level));
+    cav[level_end] = t;  // read ahead by the level's last one (no test for a next one: no branch)
     for (std::size_t next = level; next < level_end; ++next) {
       const index_t c = cav[next];
       const unsigned* const faces = kOtherThree[ent[next]];
@@ -813,9 +814,8 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
       // tetrahedron's too.
       std::uint32_t ncs[3];
       for (unsigned i = 0; i < 3; ++i) ncs[i] = tet_n[4 * std::size_t(c) + faces[i]];
-      {  // the level's last one prefetches its own neighbours again rather than test for a next one
-        const std::size_t ahead_at = next + 1 < level_end ? next + 1 : next;
-        const std::uint32_t* ahead = &tet_n[4 * std::size_t(cav[ahead_at])];
+      {
+        const std::uint32_t* ahead = &tet_n[4 * std::size_t(cav[next + 1])];
         for (unsigned i = 0; i < 4; ++i) {
           __builtin_prefetch(&mark[ahead[i] >> 2]);
           if (Owner::kShared) __builtin_prefetch(&tet_v[ahead[i] & ~3u]);  // its ownership is read first
