@@ -970,9 +970,14 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
   const std::size_t nb = w.boundary.size();
   const BoundaryFace* boundary = w.boundary.data();
   const index_t* made = w.made.data();
-  std::uint32_t* corner = atLeast(w.corner_local, 4 * nb);  // per new tetrahedron, its corners' numbers
   std::uint32_t* tet_n = tet_n_.data();
   index_t* vertex_tet = vertex_tet_.data();
+  // The boundary is a triangulated sphere (the infinite vertex one of its vertices when the cavity
+  // reaches the hull): V = F / 2 + 2 vertices for its F faces, so whether the direct table will do is
+  // known before any vertex is numbered. (Should the count come out larger after all, the hash below
+  // links them; the table is big enough for any index the numbering can form meanwhile.)
+  static_assert(kDirectLinkEntries > ((3 * 2 * (kDirectLinkMax - 2)) << 6) + 511, "room for any index");
+  const bool direct = nb / 2 + 2 <= kDirectLinkMax;
   // The local numbers live, tagged, in the vertices' vertex_tet_ entries (tetrahedron ids stay below
   // 2^30, so a tagged entry is never a tetrahedron): no array of its own. Boundary vertices are this
   // thread's own in a parallel pass; other threads may read a tagged entry and skip it (insertCore).
@@ -981,10 +986,26 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
   index_t* verts = atLeast(w.boundary_vertices, 3 * nb);
   index_t* vert_tet = atLeast(w.boundary_vertex_tets, 3 * nb);
   index_t infinite_local = 0;
+  // With the direct table, each new tetrahedron's three faces through v are entered in the table as
+  // soon as its corners are numbered (rows of kDirectLinkMax entries: the index is a shift and an or,
+  // not a multiply), and each face's code and its twin's index are kept for the second pass, which
+  // is then three loads and a store per face (with a pass of its own for the entries, reloading the
+  // corners and the face's positions in both passes, the linking took ~5 % more instructions).
+  static_assert(kDirectLinkMax == 64, "the direct table's rows are indexed by a 6-bit shift");
+  std::uint32_t* cell = nullptr;
+  std::uint32_t* face_code = nullptr;  // per face through v: 4 * tetrahedron + face
+  std::uint32_t* twin_at = nullptr;    // per face through v: its twin's entry in the table
+  if (direct) {
+    if (w.link_direct.size() < kDirectLinkEntries) w.link_direct.resize(kDirectLinkEntries);
+    cell = w.link_direct.data();
+    face_code = atLeast(w.link_faces, 6 * nb);
+    twin_at = face_code + 3 * nb;
+  }
   // Branch-free numbering (whether a vertex is new is a coin flip to the branch predictor).
   std::uint32_t nv = 0;
   for (std::size_t k = 0; k < nb; ++k) {
     const BoundaryFace& bf = boundary[k];
+    std::uint32_t corner[4];  // the local numbers of the new tetrahedron's vertices but v
     for (unsigned i = 0; i < 3; ++i) {
       const unsigned j = kOtherThree[bf.face][i];
       const index_t x = bf.v[j];
@@ -998,30 +1019,23 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
       verts[nv] = x;
       vert_tet[nv] = made[k];
       store<kShared>(slot, (cur & numbered) | ((kLocalTag | nv) & ~numbered));
-      corner[4 * k + j] = (cur & ~kLocalTag & numbered) | (nv & ~numbered);
+      corner[j] = (cur & ~kLocalTag & numbered) | (nv & ~numbered);
       nv += 1u + numbered;  // +1 for a new number, +0 (wrapping) for an old one
     }
-  }
-  // fn(k, j, x, y): face j of new tetrahedron k passes through v and the boundary edge from its
-  // position x to its position y, read outward.
-  auto forEachFaceThroughV = [&](auto&& fn) {
-    for (std::size_t k = 0; k < nb; ++k) {
-      const FaceLink* links = kFaceLinks.at[boundary[k].face];
-      for (unsigned i = 0; i < 3; ++i) fn(k, links[i].j, links[i].x, links[i].y);
+    if (direct) {
+      // Face j of the new tetrahedron passes through v and the boundary edge from its position x to
+      // its position y, read outward: entered under x -> y, its twin found under y -> x.
+      const FaceLink* links = kFaceLinks.at[bf.face];
+      for (unsigned i = 0; i < 3; ++i) {
+        const std::uint32_t code = 4 * made[k] + links[i].j;
+        cell[(corner[links[i].x] << 6) | corner[links[i].y]] = code;
+        face_code[3 * k + i] = code;
+        twin_at[3 * k + i] = (corner[links[i].y] << 6) | corner[links[i].x];
+      }
     }
-  };
-  if (nv <= kDirectLinkMax) {
-    // Rows of a fixed kDirectLinkMax entries: the index is a shift and an or, not a multiply.
-    static_assert(kDirectLinkMax == 64, "the direct table's rows are indexed by a 6-bit shift");
-    if (w.link_direct.size() < kDirectLinkMax * kDirectLinkMax)
-      w.link_direct.resize(kDirectLinkMax * kDirectLinkMax);
-    std::uint32_t* cell = w.link_direct.data();
-    forEachFaceThroughV([&](std::size_t k, unsigned j, unsigned x, unsigned y) {
-      cell[(corner[4 * k + x] << 6) | corner[4 * k + y]] = 4 * made[k] + j;
-    });
-    forEachFaceThroughV([&](std::size_t k, unsigned j, unsigned x, unsigned y) {
-      tet_n[4 * std::size_t(made[k]) + j] = cell[(corner[4 * k + y] << 6) | corner[4 * k + x]];
-    });
+  }
+  if (direct && nv <= kDirectLinkMax) {
+    for (std::size_t i = 0; i < 3 * nb; ++i) tet_n[face_code[i]] = cell[twin_at[i]];
   } else {
     // Open addressing on the undirected edge, at most a quarter full; generations tell this
     // insertion's entries from earlier ones.
@@ -1033,22 +1047,26 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
       w.generation = 1;
     }
     const std::size_t mask = (std::size_t(1) << bits) - 1;
-    forEachFaceThroughV([&](std::size_t k, unsigned j, unsigned x, unsigned y) {
-      const index_t nt = made[k];
-      const std::uint64_t key = edgeKey(boundary[k].v[x], boundary[k].v[y]);
-      for (std::size_t s = hashKey(key, bits);; s = (s + 1) & mask) {
-        LinkEntry& e = w.link[s];
-        if (e.generation != w.generation) {
-          e = LinkEntry{key, 4 * nt + j, w.generation};
-          break;
-        }
-        if (e.key == key) {
-          tet_n[4 * std::size_t(nt) + j] = e.face;
-          tet_n[e.face] = 4 * nt + j;
-          break;
+    for (std::size_t k = 0; k < nb; ++k) {
+      const FaceLink* links = kFaceLinks.at[boundary[k].face];
+      for (unsigned i = 0; i < 3; ++i) {
+        const index_t nt = made[k];
+        const unsigned j = links[i].j;
+        const std::uint64_t key = edgeKey(boundary[k].v[links[i].x], boundary[k].v[links[i].y]);
+        for (std::size_t s = hashKey(key, bits);; s = (s + 1) & mask) {
+          LinkEntry& e = w.link[s];
+          if (e.generation != w.generation) {
+            e = LinkEntry{key, 4 * nt + j, w.generation};
+            break;
+          }
+          if (e.key == key) {
+            tet_n[4 * std::size_t(nt) + j] = e.face;
+            tet_n[e.face] = 4 * nt + j;
+            break;
+          }
         }
       }
-    });
+    }
   }
   // Every vertex of a destroyed tetrahedron is on the boundary, so giving each boundary vertex one of
   // the new tetrahedra (which also clears its tag) keeps vertex_tet_ exact (vertex removal aside).

@@ -197,9 +197,9 @@ class DelaunayKernel3D {
     // per point.
     SlotArray<index_t> made;                  // the new tetrahedra, one per boundary face
     SlotArray<index_t> boundary_vertices;     // their local numbering (linkNewTetrahedra)
-    SlotArray<std::uint32_t> corner_local;    // local numbers of each new tetrahedron's vertices
+    SlotArray<std::uint32_t> link_faces;      // per face through the new point: code, then twin's cell
     SlotArray<index_t> boundary_vertex_tets;  // per boundary vertex, a new tetrahedron holding it
-    std::vector<std::uint32_t> link_direct;   // V x V directed-edge table
+    SlotArray<std::uint32_t> link_direct;     // V x V directed-edge table (read only where written)
     std::vector<LinkEntry> link;              // hash for boundaries of more than kDirectLinkMax vertices
     std::uint32_t generation = 0;
     std::vector<index_t> free;  // parallel pass: slots this thread took from the pool or recycled
@@ -305,6 +305,10 @@ class DelaunayKernel3D {
   std::vector<index_t> free_;         // recycled tetrahedra
   std::vector<std::uint32_t> birth_;  // per tetrahedron, with track_births_
   static constexpr std::size_t kDirectLinkMax = 64;
+  // The direct table's size: room for any index the numbering can form on a boundary of up to
+  // 2 (kDirectLinkMax - 2) faces (local numbers below 3 per face), although a sphere's never exceed
+  // kDirectLinkMax. Only the first kDirectLinkMax rows are touched.
+  static constexpr std::size_t kDirectLinkEntries = 384 * kDirectLinkMax;
   // Per vertex: a tetrahedron holding it, kept exact by every insertion (vertex removal may leave it
   // stale, so users check; kNoVertexTet before insertion); parallel walks restart from it (insertCore).
   // While an insertion links its new tetrahedra, its boundary vertices hold their local numbers here
