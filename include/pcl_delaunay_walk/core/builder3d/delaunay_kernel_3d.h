@@ -305,9 +305,10 @@ class DelaunayKernel3D {
   std::vector<index_t> free_;         // recycled tetrahedra
   std::vector<std::uint32_t> birth_;  // per tetrahedron, with track_births_
   static constexpr std::size_t kDirectLinkMax = 64;
-  // The direct table's size: room for any index the numbering can form on a boundary of up to
-  // 2 (kDirectLinkMax - 2) faces (local numbers below 3 per face), although a sphere's never exceed
-  // kDirectLinkMax. Only the first kDirectLinkMax rows are touched.
+  // The direct table's size: room for any index the numbering can form whenever the table is chosen
+  // (at most 2 (kDirectLinkMax - 2) boundary faces, so local numbers below 6 (kDirectLinkMax - 2)),
+  // although on a sphere they stay below kDirectLinkMax. Only the first kDirectLinkMax rows are
+  // touched (linkNewTetrahedra).
   static constexpr std::size_t kDirectLinkEntries = 384 * kDirectLinkMax;
   // Per vertex: a tetrahedron holding it, kept exact by every insertion (vertex removal may leave it
   // stale, so users check; kNoVertexTet before insertion); parallel walks restart from it (insertCore).
