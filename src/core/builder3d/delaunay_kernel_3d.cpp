@@ -1006,6 +1006,9 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
   for (std::size_t k = 0; k < nb; ++k) {
     const BoundaryFace& bf = boundary[k];
     std::uint32_t corner[4];  // the local numbers of the new tetrahedron's vertices but v
+    // Unrolled in the parallel pass's version too, where GCC had left it a loop: ~340 instructions and
+    // 0.75 simulated mispredictions more per inserted point than the sequential version.
+#pragma GCC unroll 3
     for (unsigned i = 0; i < 3; ++i) {
       const unsigned j = kOtherThree[bf.face][i];
       const index_t x = bf.v[j];
