@@ -1658,11 +1658,14 @@ void DelaunayKernel3D::validate() const {
 }
 
 std::size_t DelaunayKernel3D::memoryBytes() const {
-  return (tet_v_.capacity() + tet_n_.capacity() + birth_.capacity() + vertex_tet_.capacity() +
-          seq_.link_direct.capacity() + seq_.made.capacity() + seq_.boundary_vertices.capacity()) *
+  // Every scratch list of the sequential worker too. The direct link table counts its touched rows
+  // only: the rest of its storage is address space, never written (kDirectLinkEntries).
+  const std::size_t link_direct = std::min(seq_.link_direct.capacity(), kDirectLinkMax * kDirectLinkMax);
+  return (tet_v_.capacity() + tet_n_.capacity() + birth_.capacity() + vertex_tet_.capacity() + link_direct +
+          seq_.made.capacity() + seq_.boundary_vertices.capacity() + seq_.boundary_vertex_tets.capacity() +
+          seq_.link_faces.capacity() + seq_.cavity.capacity() + seq_.queued.capacity() + free_.capacity()) *
              sizeof(std::uint32_t) +
-         mark_.capacity() + free_.capacity() * sizeof(index_t) + seq_.link.capacity() * sizeof(LinkEntry) +
-         (seq_.cavity.capacity() + seq_.queued.capacity()) * 4 +
+         mark_.capacity() + seq_.cavity_entry.capacity() + seq_.link.capacity() * sizeof(LinkEntry) +
          seq_.boundary.capacity() * sizeof(BoundaryFace);
 }
 
