@@ -233,6 +233,9 @@ class DelaunayKernel3D {
   // owner, a tetrahedron not owned or left stale).
   template <class Owner>
   index_t startAtVertex(index_t u, const Owner& own) const;
+  // Whether s, read from vertex_tet_[u], will do as such a start.
+  template <class Owner>
+  bool startHolds(index_t s, index_t u, const Owner& own) const;
   // Visibility walk from tetrahedron `start` to the one holding p (or the first infinite one beyond
   // the hull); kNoTet after `guard` steps or, with a sharing owner, where it would leave what it owns.
   template <class Owner>
