@@ -46,10 +46,6 @@ namespace {
 
 constexpr std::uint32_t kNoTet = 0xFFFFFFFFu;
 
-inline std::uint64_t edgeKey(index_t a, index_t b) {
-  return a < b ? (std::uint64_t(a) << 32) | b : (std::uint64_t(b) << 32) | a;
-}
-
 inline std::size_t hashKey(std::uint64_t k, unsigned bits) {
   return static_cast<std::size_t>((k * 0x9E3779B97F4A7C15ull) >> (64 - bits));
 }
@@ -63,9 +59,9 @@ inline T* atLeast(SlotArray<T>& v, std::size_t n) {
 
 // Bits of an open-addressing table for at least `entries` slots (64 at the least).
 inline unsigned tableBits(std::size_t entries) {
-  unsigned bits = 6;
-  while ((std::size_t(1) << bits) < entries) ++bits;
-  return bits;
+  // No loop: asked per insertion and per vertex of the edge extraction, whose sizes vary.
+  const unsigned bits = entries <= 1 ? 0u : 64u - static_cast<unsigned>(__builtin_clzll(entries - 1));
+  return std::max(bits, 6u);
 }
 
 // The three positions other than f.
@@ -626,7 +622,7 @@ index_t DelaunayKernel3D::startAtVertex(index_t u, const Owner& own) const {
 
 template <class Owner>
 bool DelaunayKernel3D::startHolds(index_t s, index_t u, const Owner& own) const {
-  if (s >= kNoVertexTet) return false;  // not inserted yet, or (tagged) being renumbered
+  if (s >= kNoVertexTet) return false;  // not inserted yet
   if constexpr (Owner::kShared) {
     // Only a tetrahedron this thread owns, and one that still holds u (vertex removal may leave
     // vertex_tet_ stale); locate() checks a sequential start itself.
@@ -958,9 +954,11 @@ template <bool kShared>
 void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
   // The boundary is a closed triangulated surface: each of its edges (x, y) lies in exactly two
   // boundary triangles, which pass it in opposite directions when both are read outward-oriented. The
-  // new tetrahedron on one triangle records itself under the directed edge x -> y, and finds its
-  // neighbour under y -> x. Small boundaries (nearly all) index a V x V table by the boundary
-  // vertices' local numbers: two branch-free passes, no probing. Larger ones use a hash on the edge.
+  // new tetrahedron on one triangle enters its face through v under the directed edge x -> y in a hash
+  // table, and finds its neighbour under y -> x: two passes, so that no branch asks whether the twin
+  // came first (a coin flip). The table is at most 1/kLinkLoad full, so a probe nearly always ends at
+  // once. An entry is read once, by its twin, which then leaves a tombstone: free for later
+  // insertions' entries, but passed over by this one's probes (an empty slot would end them).
   //
   // Raw pointers in locals: through the vectors, every store (atomic ones above all) made the
   // compiler reload their data pointers and sizes in each iteration.
@@ -969,109 +967,48 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
   const index_t* made = w.made.data();
   std::uint32_t* tet_n = tet_n_.data();
   index_t* vertex_tet = vertex_tet_.data();
-  // The boundary is a triangulated sphere (the infinite vertex one of its vertices when the cavity
-  // reaches the hull): V = F / 2 + 2 vertices for its F faces, so whether the direct table will do is
-  // known before any vertex is numbered. (Should the count come out larger after all, the hash below
-  // links them; the table is big enough for any index the numbering can form meanwhile.)
-  static_assert(kDirectLinkEntries > ((3 * 2 * (kDirectLinkMax - 2)) << 6) + 511, "room for any index");
-  const bool direct = nb / 2 + 2 <= kDirectLinkMax;
-  // The local numbers live, tagged, in the vertices' vertex_tet_ entries (tetrahedron ids stay below
-  // 2^30, so a tagged entry is never a tetrahedron): no array of its own. Boundary vertices are this
-  // thread's own in a parallel pass; other threads may read a tagged entry and skip it (insertCore).
-  // The infinite vertex is everybody's: its number is a local's. Each number's vertex, and a new
-  // tetrahedron holding it, are kept for the last step (at most 3 per face).
-  index_t* verts = atLeast(w.boundary_vertices, 3 * nb);
-  index_t* vert_tet = atLeast(w.boundary_vertex_tets, 3 * nb);
-  index_t infinite_local = 0;
-  // With the direct table, each new tetrahedron's three faces through v are entered in the table as
-  // soon as its corners are numbered (rows of kDirectLinkMax entries: the index is a shift and an or,
-  // not a multiply), and each face's code and its twin's index are kept for the second pass, which
-  // is then three loads and a store per face (with a pass of its own for the entries, reloading the
-  // corners and the face's positions in both passes, the linking took ~5 % more instructions).
-  static_assert(kDirectLinkMax == 64, "the direct table's rows are indexed by a 6-bit shift");
-  std::uint32_t* cell = nullptr;
-  std::uint32_t* face_code = nullptr;  // per face through v: 4 * tetrahedron + face
-  std::uint32_t* twin_at = nullptr;    // per face through v: its twin's entry in the table
-  if (direct) {
-    if (w.link_direct.size() < kDirectLinkEntries) w.link_direct.resize(kDirectLinkEntries);
-    cell = w.link_direct.data();
-    face_code = atLeast(w.link_faces, 6 * nb);
-    twin_at = face_code + 3 * nb;
+  const std::size_t num_edges = 3 * nb;
+  if (w.link_keys.size() < kLinkLoad * num_edges) {
+    const std::size_t size = std::max(std::size_t(1) << tableBits(kLinkLoad * num_edges), kLinkMinEntries);
+    w.link_keys.resize(size, kNoLinkKey);  // free between insertions, so the table may simply grow
+    w.link_codes.resize(size);
   }
-  // Branch-free numbering (whether a vertex is new is a coin flip to the branch predictor).
-  std::uint32_t nv = 0;
+  std::uint64_t* keys = w.link_keys.data();
+  std::uint32_t* codes = w.link_codes.data();
+  const unsigned bits = static_cast<unsigned>(__builtin_ctzll(w.link_keys.size()));
+  const std::size_t mask = w.link_keys.size() - 1;
+  std::uint64_t* edge_key = atLeast(w.edge_keys, num_edges);
+  std::uint32_t* edge_code = atLeast(w.edge_codes, num_edges);
   for (std::size_t k = 0; k < nb; ++k) {
     const BoundaryFace& bf = boundary[k];
-    std::uint32_t corner[4];  // the local numbers of the new tetrahedron's vertices but v
-    // Unrolled in the parallel pass's version too, where GCC had left it a loop: ~340 instructions and
-    // 0.75 simulated mispredictions more per inserted point than the sequential version.
+    const FaceLink* links = kFaceLinks.at[bf.face];
 #pragma GCC unroll 3
     for (unsigned i = 0; i < 3; ++i) {
-      const unsigned j = kOtherThree[bf.face][i];
-      const index_t x = bf.v[j];
-      index_t& slot = x == kInfinite ? infinite_local : vertex_tet[x];
-      const index_t cur = slot;  // only this thread writes its vertices' entries
-      // Selected by a mask, all ones when the vertex has its number already (tagged): written with
-      // `fresh ? ... : ...`, one of the selections compiled to a branch (~15 simulated mispredictions
-      // per inserted point).
-      const index_t numbered = 0u - (cur >> 31);
-      static_assert(kLocalTag == 1u << 31, "the tag is the top bit");
-      verts[nv] = x;
-      vert_tet[nv] = made[k];
-      store<kShared>(slot, (cur & numbered) | ((kLocalTag | nv) & ~numbered));
-      corner[j] = (cur & ~kLocalTag & numbered) | (nv & ~numbered);
-      nv += 1u + numbered;  // +1 for a new number, +0 (wrapping) for an old one
-    }
-    if (direct) {
       // Face j of the new tetrahedron passes through v and the boundary edge from its position x to
-      // its position y, read outward: entered under x -> y, its twin found under y -> x.
-      const FaceLink* links = kFaceLinks.at[bf.face];
-      for (unsigned i = 0; i < 3; ++i) {
-        const std::uint32_t code = 4 * made[k] + links[i].j;
-        cell[(corner[links[i].x] << 6) | corner[links[i].y]] = code;
-        face_code[3 * k + i] = code;
-        twin_at[3 * k + i] = (corner[links[i].y] << 6) | corner[links[i].x];
-      }
+      // its position y, read outward.
+      const index_t x = bf.v[links[i].x], y = bf.v[links[i].y];
+      const std::uint64_t key = std::uint64_t(x) << 32 | y;
+      std::size_t h = hashKey(key, bits);
+      while (keys[h] < kLinkTombstone) h = (h + 1) & mask;  // taken by this insertion's entry
+      const std::uint32_t code = 4 * made[k] + links[i].j;
+      keys[h] = key;
+      codes[h] = code;
+      edge_key[3 * k + i] = key;
+      edge_code[3 * k + i] = code;
+      // Every vertex of a destroyed tetrahedron is on the boundary, so giving each boundary vertex (the
+      // tail of some boundary edge) one of the new tetrahedra keeps vertex_tet_ exact (vertex removal
+      // aside). The infinite vertex is everybody's and has no entry.
+      if (x != kInfinite) store<kShared>(vertex_tet[x], made[k]);
     }
   }
-  if (direct && nv <= kDirectLinkMax) {
-    for (std::size_t i = 0; i < 3 * nb; ++i) tet_n[face_code[i]] = cell[twin_at[i]];
-  } else {
-    // Open addressing on the undirected edge, at most a quarter full; generations tell this
-    // insertion's entries from earlier ones.
-    const std::size_t edges = nb * 3 / 2 + 1;
-    const unsigned bits = tableBits(4 * edges);
-    if (w.link.size() < (std::size_t(1) << bits)) w.link.resize(std::size_t(1) << bits, LinkEntry{});
-    if (++w.generation == 0) {
-      for (auto& e : w.link) e.generation = 0;
-      w.generation = 1;
-    }
-    const std::size_t mask = (std::size_t(1) << bits) - 1;
-    for (std::size_t k = 0; k < nb; ++k) {
-      const FaceLink* links = kFaceLinks.at[boundary[k].face];
-      for (unsigned i = 0; i < 3; ++i) {
-        const index_t nt = made[k];
-        const unsigned j = links[i].j;
-        const std::uint64_t key = edgeKey(boundary[k].v[links[i].x], boundary[k].v[links[i].y]);
-        for (std::size_t s = hashKey(key, bits);; s = (s + 1) & mask) {
-          LinkEntry& e = w.link[s];
-          if (e.generation != w.generation) {
-            e = LinkEntry{key, 4 * nt + j, w.generation};
-            break;
-          }
-          if (e.key == key) {
-            tet_n[4 * std::size_t(nt) + j] = e.face;
-            tet_n[e.face] = 4 * nt + j;
-            break;
-          }
-        }
-      }
-    }
+  for (std::size_t e = 0; e < num_edges; ++e) {
+    const std::uint64_t twin = edge_key[e] << 32 | edge_key[e] >> 32;  // y -> x
+    std::size_t h = hashKey(twin, bits);
+    for (std::size_t probes = 0; keys[h] != twin; h = (h + 1) & mask)
+      if (++probes > mask) throw Error("dw::DelaunayKernel3D: the cavity's boundary is not closed");
+    tet_n[edge_code[e]] = codes[h];
+    keys[h] = kLinkTombstone;
   }
-  // Every vertex of a destroyed tetrahedron is on the boundary, so giving each boundary vertex one of
-  // the new tetrahedra (which also clears its tag) keeps vertex_tet_ exact (vertex removal aside).
-  for (std::uint32_t i = 0; i < nv; ++i)
-    if (verts[i] != kInfinite) store<kShared>(vertex_tet[verts[i]], vert_tet[i]);
 }
 
 void DelaunayKernel3D::insertParallel(const index_t* ids, std::size_t m, unsigned num_threads) {
@@ -1659,15 +1596,13 @@ void DelaunayKernel3D::validate() const {
 }
 
 std::size_t DelaunayKernel3D::memoryBytes() const {
-  // Every scratch list of the sequential worker too. The direct link table counts its touched rows
-  // only: the rest of its storage is address space, never written (kDirectLinkEntries).
-  const std::size_t link_direct = std::min(seq_.link_direct.capacity(), kDirectLinkMax * kDirectLinkMax);
-  return (tet_v_.capacity() + tet_n_.capacity() + birth_.capacity() + vertex_tet_.capacity() + link_direct +
-          seq_.made.capacity() + seq_.boundary_vertices.capacity() + seq_.boundary_vertex_tets.capacity() +
-          seq_.link_faces.capacity() + seq_.cavity.capacity() + seq_.queued.capacity() + free_.capacity()) *
+  // Every scratch list of the sequential worker too.
+  return (tet_v_.capacity() + tet_n_.capacity() + birth_.capacity() + vertex_tet_.capacity() +
+          seq_.made.capacity() + seq_.link_codes.capacity() + seq_.edge_codes.capacity() +
+          seq_.cavity.capacity() + seq_.queued.capacity() + free_.capacity()) *
              sizeof(std::uint32_t) +
-         mark_.capacity() + seq_.cavity_entry.capacity() + seq_.link.capacity() * sizeof(LinkEntry) +
-         seq_.boundary.capacity() * sizeof(BoundaryFace);
+         (seq_.link_keys.capacity() + seq_.edge_keys.capacity()) * sizeof(std::uint64_t) + mark_.capacity() +
+         seq_.cavity_entry.capacity() + seq_.boundary.capacity() * sizeof(BoundaryFace);
 }
 
 }  // namespace builder3d

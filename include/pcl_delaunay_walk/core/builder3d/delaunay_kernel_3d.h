@@ -175,14 +175,6 @@ class DelaunayKernel3D {
     std::uint32_t face;   // local index of that face in the new tetrahedron
   };
 
-  // Link table entry: a cavity-boundary edge (key) and the face through it of the first new
-  // tetrahedron that reached it; valid when `generation` is the current insertion's.
-  struct LinkEntry {
-    std::uint64_t key = 0;
-    std::uint32_t face = 0;
-    std::uint32_t generation = 0;
-  };
-
   // One inserting thread's scratch (reused across insertions to keep the hot loop allocation-free),
   // and in a parallel pass its own recycled and fresh tetrahedron slots.
   // Aligned to keep one thread's hot counters and vector headers off another's cache lines.
@@ -195,14 +187,12 @@ class DelaunayKernel3D {
     // The linking's scratch, grown but never shrunk (its counts are the insertion's locals): resized to
     // each insertion's count, the growth's zero fill and its out-of-line call cost ~130 instructions
     // per point.
-    SlotArray<index_t> made;                  // the new tetrahedra, one per boundary face
-    SlotArray<index_t> boundary_vertices;     // their local numbering (linkNewTetrahedra)
-    SlotArray<std::uint32_t> link_faces;      // per face through the new point: code, then twin's cell
-    SlotArray<index_t> boundary_vertex_tets;  // per boundary vertex, a new tetrahedron holding it
-    SlotArray<std::uint32_t> link_direct;     // V x V directed-edge table (read only where written)
-    std::vector<LinkEntry> link;              // hash for boundaries of more than kDirectLinkMax vertices
-    std::uint32_t generation = 0;
-    std::vector<index_t> free;  // parallel pass: slots this thread took from the pool or recycled
+    SlotArray<index_t> made;              // the new tetrahedra, one per boundary face
+    SlotArray<std::uint64_t> link_keys;   // hash table of directed boundary edges (empty between uses)
+    SlotArray<std::uint32_t> link_codes;  // per table entry: the face through the new point there
+    SlotArray<std::uint64_t> edge_keys;   // per face through the new point: its directed edge
+    SlotArray<std::uint32_t> edge_codes;  // per face through the new point: its code
+    std::vector<index_t> free;            // parallel pass: slots this thread took from the pool or recycled
     index_t last_tet = 0;
     index_t last_vertex = kInfinite;  // the last vertex this worker inserted (none yet: kInfinite)
     std::uint32_t rng = 0x9E3779B9u;
@@ -307,18 +297,17 @@ class DelaunayKernel3D {
   SlotArray<Mark> mark_;
   std::vector<index_t> free_;         // recycled tetrahedra
   std::vector<std::uint32_t> birth_;  // per tetrahedron, with track_births_
-  static constexpr std::size_t kDirectLinkMax = 64;
-  // The direct table's size: room for any index the numbering can form whenever the table is chosen
-  // (at most 2 (kDirectLinkMax - 2) boundary faces, so local numbers below 6 (kDirectLinkMax - 2)),
-  // although on a sphere they stay below kDirectLinkMax. Only the first kDirectLinkMax rows are
-  // touched (linkNewTetrahedra).
-  static constexpr std::size_t kDirectLinkEntries = 384 * kDirectLinkMax;
+  // The linking's hash table: at least kLinkMinEntries entries and kLinkLoad per directed edge. A
+  // typical boundary's ~80 directed edges fill 2 % of it, so a probe nearly always ends at once
+  // (tables of 1024 and 2048 entries, sized per insertion, measured slower).
+  static constexpr std::size_t kLinkMinEntries = 4096;
+  static constexpr std::size_t kLinkLoad = 8;
+  // Free entries: never used, or used and read (no edge has these keys: kInfinite -> kInfinite or kDead).
+  static constexpr std::uint64_t kNoLinkKey = ~std::uint64_t(0);
+  static constexpr std::uint64_t kLinkTombstone = kNoLinkKey - 1;
   // Per vertex: a tetrahedron holding it, kept exact by every insertion (vertex removal may leave it
   // stale, so users check; kNoVertexTet before insertion); parallel walks restart from it (insertCore).
-  // While an insertion links its new tetrahedra, its boundary vertices hold their local numbers here
-  // instead, tagged with kLocalTag (linkNewTetrahedra).
-  static constexpr index_t kLocalTag = 0x80000000u;
-  static constexpr index_t kNoVertexTet = 0x7FFFFFFFu;  // untagged, above every tetrahedron id
+  static constexpr index_t kNoVertexTet = 0x7FFFFFFFu;  // above every tetrahedron id
   std::vector<index_t> vertex_tet_;
   bool track_births_ = false;
 
