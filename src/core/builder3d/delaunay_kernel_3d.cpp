@@ -956,9 +956,10 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
   // boundary triangles, which pass it in opposite directions when both are read outward-oriented. The
   // new tetrahedron on one triangle enters its face through v under the directed edge x -> y in a hash
   // table, and finds its neighbour under y -> x: two passes, so that no branch asks whether the twin
-  // came first (a coin flip). The table is at most 1/kLinkLoad full, so a probe nearly always ends at
-  // once. An entry is read once, by its twin, which then leaves a tombstone: free for later
-  // insertions' entries, but passed over by this one's probes (an empty slot would end them).
+  // came first (a coin flip). The table is nearly always ~2 % full (kLinkMinEntries), so a probe
+  // nearly always ends at once. An entry is read once, by its twin, which then leaves a tombstone:
+  // free for later insertions' entries, but passed over by this one's probes (an empty slot would end
+  // them). (Session 13's hash linked in one pass and branched on whether the twin had come first.)
   //
   // Raw pointers in locals: through the vectors, every store (atomic ones above all) made the
   // compiler reload their data pointers and sizes in each iteration.
