@@ -180,6 +180,28 @@ TEST(DelaunayKernel3D, DegenerateInputsGiveValidTriangulations) {
   }
 }
 
+TEST(DelaunayKernel3D, ACavityOfTheWholeBallLinksLikeAnyOther) {
+  // The centre of a sphere inserted last destroys every tetrahedron: its cavity's boundary is the
+  // hull, ~2n triangles, more directed edges than the link table's first size holds, so the table
+  // grows during that insertion. The result must be valid and the same as with the centre first.
+  auto pts = b3d_test::latticeSphere(2609);  // 1008 points
+  const std::size_t n = pts.size();
+  // 2n - 4 boundary triangles with 3 directed edges each: more than the 4096 entries the table starts
+  // with could hold at all.
+  ASSERT_GT(3 * (2 * n - 4), std::size_t(4096));
+  pts.push_back({0, 0, 0});
+  auto last = identity(n);
+  last.push_back(static_cast<dw::index_t>(n));
+  std::vector<dw::index_t> first{static_cast<dw::index_t>(n)};
+  first.insert(first.end(), last.begin(), last.end() - 1);
+  const Edges a = b3d_test::normalise(buildWithOrder(pts, last));
+  const Edges b = b3d_test::normalise(buildWithOrder(pts, first));
+  EXPECT_EQ(a, b);
+  // Every point is a neighbour of the centre.
+  EXPECT_EQ(std::count_if(a.begin(), a.end(), [&](const auto& e) { return e.second == n || e.first == n; }),
+            static_cast<std::ptrdiff_t>(n));
+}
+
 TEST(DelaunayKernel3D, IncrementalInsertionEqualsFreshBuild) {
   for (const auto& pts : {b3d_test::uniformCube(3000, 5), b3d_test::grid(8, 6, 5)}) {
     const std::size_t half = pts.size() / 2;
