@@ -309,7 +309,8 @@ struct DelaunayKernel3D::CellSplit {
   };
 
   double coordinate(const Vec3f& p, int direction) const {
-    // Pass 0 reads the point's own coordinate (ownership is tested ~50 times per insertion).
+    // Pass 0 reads the point's own coordinate (every point's cell is found once per pass, and a sparse
+    // pass descends at each of its ~40 ownership tests per insertion).
     if (directions == kDirections[0]) return direction == 0 ? p.x : direction == 1 ? p.y : p.z;
     const double* d = directions[direction];
     return double(p.x) * d[0] + double(p.y) * d[1] + double(p.z) * d[2];
@@ -613,10 +614,14 @@ bool DelaunayKernel3D::takeSlots(Worker& w, std::size_t count) {
   return true;
 }
 
+template <bool kShared>
+index_t DelaunayKernel3D::vertexTet(index_t u) const {
+  return u < num_points_ ? load<kShared>(vertex_tet_[u]) : kNoVertexTet;  // also catches v - j wrapping
+}
+
 template <class Owner>
 index_t DelaunayKernel3D::startAtVertex(index_t u, const Owner& own) const {
-  if (u >= num_points_) return kNoTet;  // also catches v - j wrapping below 0
-  const index_t s = load<Owner::kShared>(vertex_tet_[u]);
+  const index_t s = vertexTet<Owner::kShared>(u);
   return startHolds(s, u, own) ? s : kNoTet;
 }
 
@@ -652,8 +657,7 @@ index_t DelaunayKernel3D::walkStart(index_t v, const double* p, const Worker& w,
     const index_t u = (k & 1) ? v - (k + 1) / 2 : v + (k + 1) / 2;  // v-1, v+1, v-2, v+2
     // The distance first: a parallel pass's check of the start (its ownership, that it holds u) reads
     // a tetrahedron, and with the distance first it is made for ~1.4 candidates per point, not ~4.
-    if (u >= num_points_) continue;  // also catches v - j wrapping below 0
-    const index_t s = load<Owner::kShared>(vertex_tet_[u]);
+    const index_t s = vertexTet<Owner::kShared>(u);
     if (s >= kNoVertexTet) continue;
     const double d = distance2(u);
     if (d >= best || !startHolds(s, u, own)) continue;
@@ -1072,7 +1076,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
     std::iota(ids.begin(), ids.end(), index_t(0));
     split.build(sample.data(), ids.data(), ids.size(), threads, pass);
   }
-  // Every point's cell, found once: ownership is tested ~50 times per insertion, each a descent of
+  // Every point's cell, found once: ownership is tested ~40 times per insertion, each a descent of
   // the split tree (4 levels of projections at 16 threads; the device's 16-thread builds of 4M points
   // then took 15 % more thread time). Not for a pass that inserts few points into many (a sliding
   // window's update), which would pay for a byte per point to test a handful.

@@ -223,6 +223,9 @@ class DelaunayKernel3D {
   // owner, a tetrahedron not owned or left stale).
   template <class Owner>
   index_t startAtVertex(index_t u, const Owner& own) const;
+  // vertex_tet_[u] (a relaxed atomic read with a sharing owner), kNoVertexTet for u out of range.
+  template <bool kShared>
+  index_t vertexTet(index_t u) const;
   // Whether s, read from vertex_tet_[u], will do as such a start.
   template <class Owner>
   bool startHolds(index_t s, index_t u, const Owner& own) const;
