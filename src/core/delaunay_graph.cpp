@@ -4,9 +4,11 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <type_traits>
 
+#include "multiversioning.h"
 #include "page_memory.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/uninitialised_allocator.h"
@@ -91,6 +93,67 @@ float safeRadius2(float r) {
   return r2 >= 1e-30 && std::isfinite(f) && double(f) < double(r) * double(r) ? f : 0.f;
 }
 
+// rank[k]: how many of the n keys are smaller than keys[k], which is where keys[k] goes in ascending
+// order when the keys are distinct. Counted without a branch: neighbourhoods are small (~16 on
+// volumetric input), and an insertion sort's comparisons were coin flips to the branch predictor (~16
+// mispredictions per vertex, more than the rest of a build's assembly together). Above 64 keys, a sort.
+// rank[k]: how many of the n (<= N) keys are smaller than keys[k], which is keys[k]'s place in
+// ascending order when the keys are distinct. keys holds N entries, those past n padded with the
+// largest key. Counted without a branch over a fixed N, which the compiler unrolls and, for
+// x86-64-v3, vectorises (four 64-bit compares at once): an insertion sort's comparisons were coin flips
+// to the branch predictor, ~16 mispredictions per vertex, more than the rest of the assembly together.
+template <int N>
+[[gnu::always_inline]] inline void rankPadded(const std::int64_t* keys, index_t* rank) {
+  std::int64_t r[N] = {};
+  for (int i = 0; i < N; ++i) {
+    const std::int64_t x = keys[i];
+    for (int k = 0; k < N; ++k) r[k] += x < keys[k];
+  }
+  for (int k = 0; k < N; ++k) rank[k] = static_cast<index_t>(r[k]);
+}
+
+constexpr index_t kRankedMax = 64;  // above, a sort: ~16 neighbours on volumetric input, 64 is rare
+
+template <int N>
+void rankBaseline(const std::int64_t* keys, index_t* rank) {
+  rankPadded<N>(keys, rank);
+}
+
+template <int N>
+DW_TARGET_V3 void rankV3(const std::int64_t* keys, index_t* rank) {
+  rankPadded<N>(keys, rank);
+}
+
+template <int N>
+void rankOnThisCpu(const std::int64_t* keys, index_t* rank) {
+  static const bool v3 = detail::cpuHasX86_64V3();
+  v3 ? rankV3<N>(keys, rank) : rankBaseline<N>(keys, rank);
+}
+
+// The ranks of n keys (non-negative; keys has room for max(n, kRankedMax) entries, the padding is
+// overwritten). Equal keys share a rank.
+void rankKeys(std::int64_t* keys, index_t n, index_t* rank) {
+  if (n <= kRankedMax) {
+    const index_t padded = n <= 16 ? 16 : n <= 32 ? 32 : kRankedMax;
+    std::fill(keys + n, keys + padded, std::numeric_limits<std::int64_t>::max());
+    if (padded == 16)
+      rankOnThisCpu<16>(keys, rank);
+    else if (padded == 32)
+      rankOnThisCpu<32>(keys, rank);
+    else
+      rankOnThisCpu<kRankedMax>(keys, rank);
+    return;
+  }
+  std::vector<std::pair<std::int64_t, index_t>> sorted(n);
+  for (index_t k = 0; k < n; ++k) sorted[k] = {keys[k], k};
+  std::sort(sorted.begin(), sorted.end());
+  index_t r = 0;
+  for (index_t k = 0; k < n; ++k) {
+    if (k > 0 && sorted[k].first != sorted[k - 1].first) r = k;
+    rank[sorted[k].second] = r;
+  }
+}
+
 // x += 1, atomically where other threads add to the same counters.
 template <bool kShared>
 inline index_t fetchIncrement(index_t& x) {
@@ -164,9 +227,10 @@ void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> un
   detail::freeScratch(fill);
 
   // The records, vertex by vertex on all threads: each neighbourhood is made in a scratch list, ordered
-  // by (m, j) through one 64-bit key per edge (m >= 0, so its float bits order like its value) and
-  // copied out in that order. Sorting the 20-byte records in place by comparing m, then j, had taken
-  // about half of the one-thread assembly (0.29 of 0.6 s at 1M points).
+  // by (m, j) through one 64-bit key per edge, and each record is copied to its key's rank. Sorting the
+  // 20-byte records in place by comparing m, then j, had taken about half of the one-thread assembly
+  // (0.29 of 0.6 s at 1M points); sorting the keys by insertion, 0.49 of which ~0.1 s went to
+  // mispredicted comparisons.
   const std::size_t total = g.offsets[n];
   const unsigned vertex_workers = workerCount(n, threads, std::size_t(1) << 14);
   // Sized unwritten: its pages are mapped by the threads that write the records, below.
@@ -176,17 +240,17 @@ void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> un
   // Per worker, the first repeated edge found (kInvalidIndex: none).
   std::vector<std::pair<index_t, index_t>> repeated(vertex_workers, {kInvalidIndex, kInvalidIndex});
   parallelFor(n, vertex_workers, [&](std::size_t b, std::size_t e, unsigned w) {
-    struct Key {
-      std::uint64_t order;  // m's float bits above j
-      index_t at;           // the record's place in `made`
-    };
-    std::vector<Key> keys;
+    // Per neighbour: its record, its key (m's float bits above j: m >= 0, so the bits order like the
+    // value, and the top bit is clear) and the key's rank, which is the record's place in the output.
     std::vector<EdgeRecord> made;
+    std::vector<std::int64_t> keys;
+    std::vector<index_t> rank;
     for (std::size_t v = b; v < e; ++v) {
       const index_t first = g.offsets[v], count = g.offsets[v + 1] - first;
       const Vec3f& p = g.points[v];
-      keys.resize(count);
       made.resize(count);
+      keys.resize(std::max(count, kRankedMax));
+      rank.resize(std::max(count, kRankedMax));
       for (index_t k = 0; k < count; ++k) {
         const index_t j = neighbour[first + k];
         const Vec3f d = g.points[j] - p;
@@ -195,26 +259,25 @@ void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> un
         made[k] = {float(d.x * inv), float(d.y * inv), float(d.z * inv), float(0.5 * len), j};
         std::uint32_t bits;
         std::memcpy(&bits, &made[k].m, sizeof bits);
-        keys[k] = {std::uint64_t(bits) << 32 | j, k};
+        keys[k] = static_cast<std::int64_t>(std::uint64_t(bits) << 32 | j);
       }
-      auto before = [](const Key& a, const Key& b) { return a.order < b.order; };
-      if (count <= 32) {
-        for (index_t k = 1; k < count; ++k) {  // insertion sort: neighbourhoods are small
-          const Key x = keys[k];
-          index_t i = k;
-          for (; i > 0 && before(x, keys[i - 1]); --i) keys[i] = keys[i - 1];
-          keys[i] = x;
-        }
-      } else {
-        std::sort(keys.begin(), keys.end(), before);
-      }
+      rankKeys(keys.data(), count, rank.data());
+      EdgeRecord* out = g.edges.data() + first;
+      std::uint64_t rank_sum = 0;
       for (index_t k = 0; k < count; ++k) {
-        // A repeat has the same length: sorted, it sits next to its twin.
-        if (k > 0 && keys[k].order == keys[k - 1].order && repeated[w].first == kInvalidIndex)
-          repeated[w] = {index_t(v), made[keys[k].at].j};
-        g.edges[first + k] = made[keys[k].at];
+        out[rank[k]] = made[k];
+        rank_sum += rank[k];
       }
-      if (count > 0) g.safe_radius2[v] = safeRadius2(g.edges[first].m);
+      // Distinct keys take the ranks 0 .. count - 1. A repeated edge gives two equal keys (same length,
+      // same j), which share a rank: the sum falls short (and a record's place is left unwritten, but
+      // the build fails below).
+      const std::uint64_t distinct_sum = count == 0 ? 0 : std::uint64_t(count) * (count - 1) / 2;
+      if (rank_sum != distinct_sum && repeated[w].first == kInvalidIndex) {
+        std::sort(keys.begin(), keys.begin() + count);
+        for (index_t k = 1; k < count; ++k)
+          if (keys[k] == keys[k - 1]) repeated[w] = {index_t(v), static_cast<index_t>(keys[k])};
+      }
+      if (count > 0) g.safe_radius2[v] = safeRadius2(out[0].m);
     }
   });
   for (const auto& [v, j] : repeated)

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <random>
 
@@ -65,6 +66,51 @@ TEST(AssembleEdges, SameGraphOnAnyThreadCount) {
   DelaunayGraph d;
   d.points = built.points;
   EXPECT_THROW(assembleEdges(d, missing, true, 4), Error);
+}
+
+// One vertex joined to n others, for n on both sides of each size the assembly ranks a neighbourhood
+// at (16, 32, 64; a sort above), on lattice points where many edges have the same length: its records
+// come out ordered by (length, neighbour id), each neighbour once, and a repeated edge is found.
+TEST(AssembleEdges, NeighbourhoodsOfEverySizeAreOrderedByLengthThenId) {
+  std::vector<Vec3f> lattice;
+  for (int x = -4; x <= 4; ++x)
+    for (int y = -4; y <= 4; ++y)
+      for (int z = -4; z <= 4; ++z)
+        if (x != 0 || y != 0 || z != 0) lattice.push_back({float(x), float(y), float(z)});
+  std::mt19937 rng(5);
+  std::shuffle(lattice.begin(), lattice.end(), rng);
+  for (const index_t n : {1u, 2u, 15u, 16u, 17u, 31u, 32u, 33u, 63u, 64u, 65u, 300u}) {
+    DelaunayGraph g;
+    g.points.push_back({0.f, 0.f, 0.f});
+    g.points.insert(g.points.end(), lattice.begin(), lattice.begin() + n);
+    std::vector<std::pair<index_t, index_t>> star;
+    for (index_t j = 1; j <= n; ++j) star.emplace_back(j % 2 ? 0 : j, j % 2 ? j : 0);
+    std::shuffle(star.begin(), star.end(), rng);
+    assembleEdges(g, star, true, 1);
+    ASSERT_EQ(g.offsets[1], n) << n;
+    std::vector<char> seen(n + 1, 0);
+    for (index_t e = 0; e < n; ++e) {
+      const EdgeRecord& r = g.edges[e];
+      ASSERT_TRUE(r.j >= 1 && r.j <= n && !seen[r.j]) << n << " neighbours: record " << e;
+      seen[r.j] = 1;
+      const Vec3f& q = g.points[r.j];
+      EXPECT_EQ(r.m, float(0.5 * std::sqrt(double(q.x) * q.x + double(q.y) * q.y + double(q.z) * q.z)));
+      if (e > 0) {
+        const EdgeRecord& p = g.edges[e - 1];
+        EXPECT_TRUE(p.m < r.m || (p.m == r.m && p.j < r.j))
+            << n << " neighbours: records " << e - 1 << ", " << e;
+      }
+    }
+    for (index_t j = 1; j <= n; ++j) {
+      ASSERT_EQ(g.offsets[j + 1] - g.offsets[j], 1u);
+      EXPECT_EQ(g.edges[g.offsets[j]].j, 0u);
+    }
+    if (n < 2) continue;
+    star.push_back({star[n / 2].second, star[n / 2].first});
+    DelaunayGraph r;
+    r.points = g.points;
+    EXPECT_THROW(assembleEdges(r, star, true, 1), Error) << n;
+  }
 }
 
 }  // namespace

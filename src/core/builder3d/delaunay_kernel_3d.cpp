@@ -14,6 +14,7 @@
 #include <emmintrin.h>
 #endif
 
+#include "../multiversioning.h"
 #include "../page_memory.h"
 #include "../parallel_bucket.h"
 #include "../parallel_sort.h"
@@ -24,21 +25,7 @@
 #include "pcl_delaunay_walk/core/process_memory.h"
 
 // The insertion (insertCore with the walk and the linking inlined) is compiled twice, for baseline
-// x86-64 and for x86-64-v3 (AVX2, FMA, BMI2), and each call takes the version the CPU can run. A
-// package built for the baseline thus runs the wider code where the CPU has it: 100k points on one
-// thread ran 11 % fewer instructions of insertion (cachegrind). The predicates' error bounds still
-// hold: the core is compiled with -ffp-contract=off, so no product is fused into an add. By hand
-// rather than with GCC's target_clones: an exception thrown inside a target_clones function (a
-// repeated point, std::bad_alloc) ends in std::terminate with GCC 12, as the call through its ifunc
-// is taken not to throw. Only with GCC on x86-64 (Clang 14 cannot test for "x86-64-v3"); elsewhere,
-// or with DW_NO_MULTIVERSIONING (CMake: DW_MULTIVERSIONING=OFF), one baseline version.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(DW_NO_MULTIVERSIONING)
-#define DW_X86_64_V3 1
-#define DW_TARGET_V3 __attribute__((target("arch=x86-64-v3")))
-#else
-#define DW_X86_64_V3 0
-#define DW_TARGET_V3
-#endif
+// x86-64 and for x86-64-v3, and each call takes the version the CPU can run (multiversioning.h).
 
 namespace dw {
 namespace builder3d {
@@ -916,15 +903,8 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
 }
 
 namespace {
-// Read once, at load time: a function-local static would test its guard on every insertion.
-const bool kCpuHasX86_64V3 = [] {
-#if DW_X86_64_V3
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("x86-64-v3") != 0;
-#else
-  return false;
-#endif
-}();
+// Read once, at load time: even a function-local static's guard is a test on every insertion.
+const bool kCpuHasX86_64V3 = detail::cpuHasX86_64V3();
 }  // namespace
 
 // The two compiled versions of the insertion (see DW_TARGET_V3): insertCore, locateInline, walkTo and
