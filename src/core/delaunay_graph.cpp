@@ -196,16 +196,20 @@ void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> un
   if (2 * undirected.size() > static_cast<std::size_t>(kInvalidIndex))
     throw Error("pcl_delaunay_walk: graph has more than 2^32 directed edges");
 
-  // Degrees, then each vertex's neighbour ids, scattered from the list on all threads (in an order
-  // that depends on the threads; the sort below fixes it).
+  // Degrees, then the records, scattered from the list on all threads into each vertex's part (in an
+  // order that depends on the threads; the ranking below fixes it). An edge's two records are made
+  // together: u -> v is (d / |d|, |d| / 2, v) for d = x_v - x_u, and v -> u is made from x_u - x_v,
+  // which is -d but for the signs of zeros, so the length and the division serve both. Made per vertex
+  // instead, from a list of neighbour ids, each was computed twice and the list took 8 bytes per edge
+  // besides (1M points: 62 MB).
   const unsigned workers = workerCount(undirected.size(), threads, std::size_t(1) << 16);
   std::vector<index_t> fill(n, 0);
   auto scatter = [&](auto shared, auto&& fn) {
     parallelFor(undirected.size(), workers, [&](std::size_t b, std::size_t e, unsigned) {
       for (std::size_t k = b; k < e; ++k) {
         const auto [u, v] = undirected[k];
-        fn(u, v, fetchIncrement<decltype(shared)::value>(fill[u]));
-        fn(v, u, fetchIncrement<decltype(shared)::value>(fill[v]));
+        fn(u, v, fetchIncrement<decltype(shared)::value>(fill[u]),
+           fetchIncrement<decltype(shared)::value>(fill[v]));
       }
     });
   };
@@ -215,61 +219,61 @@ void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> un
     else
       scatter(std::false_type{}, fn);
   };
-  scatterAll([](index_t, index_t, index_t) {});  // degrees
+  scatterAll([](index_t, index_t, index_t, index_t) {});  // degrees
   g.offsets.assign(n + 1, 0);
   for (std::size_t v = 0; v < n; ++v) {
     g.offsets[v + 1] = g.offsets[v] + fill[v];
     fill[v] = g.offsets[v];
   }
-  std::vector<index_t, UninitialisedAllocator<index_t>> neighbour(g.offsets[n]);
-  scatterAll([&](index_t, index_t v, index_t at) { neighbour[at] = v; });
+  // Sized unwritten: its pages are mapped by the threads that write the records.
+  g.edges.clear();
+  g.edges.resize(g.offsets[n]);
+  EdgeRecord* const records = g.edges.data();
+  const Vec3f* const points = g.points.data();
+  scatterAll([&](index_t u, index_t v, index_t at_u, index_t at_v) {
+    const Vec3f d = points[v] - points[u], back = points[u] - points[v];
+    const double len = std::sqrt(double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z);
+    const double inv = len > 0.0 ? 1.0 / len : 0.0;
+    const float m = float(0.5 * len);
+    records[at_u] = {float(d.x * inv), float(d.y * inv), float(d.z * inv), m, v};
+    records[at_v] = {float(back.x * inv), float(back.y * inv), float(back.z * inv), m, u};
+  });
   detail::freeScratch(undirected);
   detail::freeScratch(fill);
 
-  // The records, vertex by vertex on all threads: each neighbourhood is made in a scratch list, ordered
-  // by (m, j) through one 64-bit key per edge, and each record is copied to its key's rank. Sorting the
-  // 20-byte records in place by comparing m, then j, had taken about half of the one-thread assembly
-  // (0.29 of 0.6 s at 1M points); sorting the keys by insertion, 0.49 of which ~0.1 s went to
-  // mispredicted comparisons.
-  const std::size_t total = g.offsets[n];
+  // Each neighbourhood in order, vertex by vertex on all threads: ordered by (m, j) through one 64-bit
+  // key per record, each record is copied to its key's rank. Sorting the 20-byte records in place by
+  // comparing m, then j, had taken about half of the one-thread assembly (0.29 of 0.6 s at 1M points);
+  // sorting the keys by insertion, 0.49 s of which ~0.1 s went to mispredicted comparisons.
   const unsigned vertex_workers = workerCount(n, threads, std::size_t(1) << 14);
-  // Sized unwritten: its pages are mapped by the threads that write the records, below.
-  g.edges.clear();
-  g.edges.resize(total);
   g.safe_radius2.assign(n, 0.f);
   // Per worker, the first repeated edge found (kInvalidIndex: none).
   std::vector<std::pair<index_t, index_t>> repeated(vertex_workers, {kInvalidIndex, kInvalidIndex});
   parallelFor(n, vertex_workers, [&](std::size_t b, std::size_t e, unsigned w) {
-    // Per neighbour: its record, its key (m's float bits above j: m >= 0, so the bits order like the
-    // value, and the top bit is clear) and the key's rank, which is the record's place in the output.
+    // Per record: a copy, its key (m's float bits above j: m >= 0, so the bits order like the value,
+    // and the top bit is clear) and the key's rank, which is the record's place.
     std::vector<EdgeRecord> made;
     std::vector<std::int64_t> keys;
     std::vector<index_t> rank;
     for (std::size_t v = b; v < e; ++v) {
       const index_t first = g.offsets[v], count = g.offsets[v + 1] - first;
-      const Vec3f& p = g.points[v];
-      made.resize(count);
+      EdgeRecord* const out = records + first;
+      made.assign(out, out + count);
       keys.resize(std::max(count, kRankedMax));
       rank.resize(std::max(count, kRankedMax));
       for (index_t k = 0; k < count; ++k) {
-        const index_t j = neighbour[first + k];
-        const Vec3f d = g.points[j] - p;
-        const double len = std::sqrt(double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z);
-        const double inv = len > 0.0 ? 1.0 / len : 0.0;
-        made[k] = {float(d.x * inv), float(d.y * inv), float(d.z * inv), float(0.5 * len), j};
         std::uint32_t bits;
         std::memcpy(&bits, &made[k].m, sizeof bits);
-        keys[k] = static_cast<std::int64_t>(std::uint64_t(bits) << 32 | j);
+        keys[k] = static_cast<std::int64_t>(std::uint64_t(bits) << 32 | made[k].j);
       }
       rankKeys(keys.data(), count, rank.data());
-      EdgeRecord* out = g.edges.data() + first;
       std::uint64_t rank_sum = 0;
       for (index_t k = 0; k < count; ++k) {
         out[rank[k]] = made[k];
         rank_sum += rank[k];
       }
       // Distinct keys take the ranks 0 .. count - 1. A repeated edge gives two equal keys (same length,
-      // same j), which share a rank: the sum falls short (and a record's place is left unwritten, but
+      // same j), which share a rank: the sum falls short (and a record's place keeps a stale copy, but
       // the build fails below).
       const std::uint64_t distinct_sum = count == 0 ? 0 : std::uint64_t(count) * (count - 1) / 2;
       if (rank_sum != distinct_sum && repeated[w].first == kInvalidIndex) {

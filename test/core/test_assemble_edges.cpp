@@ -68,9 +68,21 @@ TEST(AssembleEdges, SameGraphOnAnyThreadCount) {
   EXPECT_THROW(assembleEdges(d, missing, true, 4), Error);
 }
 
+// A record's fields as the assembly defines them, computed here on their own: (x_j - x_v) / |.| and
+// |.| / 2 for the float difference, to the bit (zeros keep the sign the difference gives them).
+void expectRecordOf(const DelaunayGraph& g, index_t v, const EdgeRecord& r) {
+  const Vec3f d = g.points[r.j] - g.points[v];
+  const double len = std::sqrt(double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z);
+  const double inv = len > 0.0 ? 1.0 / len : 0.0;
+  const float want[4] = {float(d.x * inv), float(d.y * inv), float(d.z * inv), float(0.5 * len)};
+  const float got[4] = {r.ex, r.ey, r.ez, r.m};
+  EXPECT_EQ(0, std::memcmp(want, got, sizeof want)) << "record " << v << " -> " << r.j;
+}
+
 // One vertex joined to n others, for n on both sides of each size the assembly ranks a neighbourhood
 // at (16, 32, 64; a sort above), on lattice points where many edges have the same length: its records
-// come out ordered by (length, neighbour id), each neighbour once, and a repeated edge is found.
+// come out ordered by (length, neighbour id), each neighbour once, and a repeated edge is found. Every
+// record is the one defined above, those towards the centre too, whose zero components are +0.
 TEST(AssembleEdges, NeighbourhoodsOfEverySizeAreOrderedByLengthThenId) {
   std::vector<Vec3f> lattice;
   for (int x = -4; x <= 4; ++x)
@@ -93,8 +105,7 @@ TEST(AssembleEdges, NeighbourhoodsOfEverySizeAreOrderedByLengthThenId) {
       const EdgeRecord& r = g.edges[e];
       ASSERT_TRUE(r.j >= 1 && r.j <= n && !seen[r.j]) << n << " neighbours: record " << e;
       seen[r.j] = 1;
-      const Vec3f& q = g.points[r.j];
-      EXPECT_EQ(r.m, float(0.5 * std::sqrt(double(q.x) * q.x + double(q.y) * q.y + double(q.z) * q.z)));
+      expectRecordOf(g, 0, r);
       if (e > 0) {
         const EdgeRecord& p = g.edges[e - 1];
         EXPECT_TRUE(p.m < r.m || (p.m == r.m && p.j < r.j))
@@ -104,6 +115,7 @@ TEST(AssembleEdges, NeighbourhoodsOfEverySizeAreOrderedByLengthThenId) {
     for (index_t j = 1; j <= n; ++j) {
       ASSERT_EQ(g.offsets[j + 1] - g.offsets[j], 1u);
       EXPECT_EQ(g.edges[g.offsets[j]].j, 0u);
+      expectRecordOf(g, j, g.edges[g.offsets[j]]);
     }
     if (n < 2) continue;
     star.push_back({star[n / 2].second, star[n / 2].first});
