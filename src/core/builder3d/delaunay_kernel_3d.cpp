@@ -972,6 +972,9 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
   for (std::size_t k = 0; k < nb; ++k) {
     const BoundaryFace& bf = boundary[k];
     const FaceLink* links = kFaceLinks.at[bf.face];
+    // In a local: read through the pointer, it was loaded again after each store below (which the
+    // compiler must assume may alias it).
+    const index_t nt = made[k];
 #pragma GCC unroll 3
     for (unsigned i = 0; i < 3; ++i) {
       // Face j of the new tetrahedron passes through v and the boundary edge from its position x to
@@ -980,7 +983,7 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
       const std::uint64_t key = std::uint64_t(x) << 32 | y;
       std::size_t h = hashKey(key, bits);
       while (keys[h] < kLinkTombstone) h = (h + 1) & mask;  // taken by this insertion's entry
-      const std::uint32_t code = 4 * made[k] + links[i].j;
+      const std::uint32_t code = 4 * nt + links[i].j;
       keys[h] = key;
       codes[h] = code;
       edge_key[3 * k + i] = key;
@@ -988,7 +991,7 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
       // Every vertex of a destroyed tetrahedron is on the boundary, so giving each boundary vertex (the
       // tail of some boundary edge) one of the new tetrahedra keeps vertex_tet_ exact (vertex removal
       // aside). The infinite vertex is everybody's and has no entry.
-      if (x != kInfinite) store<kShared>(vertex_tet[x], made[k]);
+      if (x != kInfinite) store<kShared>(vertex_tet[x], nt);
     }
   }
   for (std::size_t e = 0; e < num_edges; ++e) {
