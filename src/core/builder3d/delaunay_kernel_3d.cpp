@@ -873,22 +873,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
   }
   if (track_births_)
     for (std::size_t k = 0; k < nb; ++k) birth_[mk[k]] = static_cast<std::uint32_t>(num_inserted_ + 1);
-  {
-    index_t* const tv = tet_v_.data();
-    std::uint32_t* const tn = tet_n_.data();
-    for (std::size_t k = 0; k < nb; ++k) {
-      const BoundaryFace& bf = bnd[k];
-      const index_t nt = mk[k];
-      index_t* const ntv = &tv[4 * std::size_t(nt)];
-      store<kShared>(ntv[0], bf.v[0]);  // written out: as a loop of atomic stores it stayed a loop
-      store<kShared>(ntv[1], bf.v[1]);
-      store<kShared>(ntv[2], bf.v[2]);
-      store<kShared>(ntv[3], bf.v[3]);
-      tn[4 * std::size_t(nt) + bf.face] = bf.outer;
-      tn[bf.outer] = 4 * nt + bf.face;
-    }
-  }
-  linkNewTetrahedra<kShared>(w);
+  writeNewTetrahedra<kShared>(w);
   w.stats.created_tets += boundary.size();
   for (std::size_t k = boundary.size(); k < cavity.size(); ++k) {
     store<kShared>(tet_v_[4 * std::size_t(cavity[k])], kDead);
@@ -913,7 +898,7 @@ const bool kCpuHasX86_64V3 = detail::cpuHasX86_64V3();
 }  // namespace
 
 // The two compiled versions of the insertion (see DW_TARGET_V3): insertCore, locateInline, walkTo and
-// linkNewTetrahedra are always inlined, so each wrapper holds a whole insertion built for its target.
+// writeNewTetrahedra are always inlined, so each wrapper holds a whole insertion built for its target.
 template <class Owner>
 bool DelaunayKernel3D::insertCoreBaseline(index_t v, Worker& w, const Owner& own) {
   return insertCore(v, w, own);
@@ -940,7 +925,9 @@ void DelaunayKernel3D::insert(index_t v) {
 }
 
 template <bool kShared>
-void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
+void DelaunayKernel3D::writeNewTetrahedra(Worker& w) {
+  // Each new tetrahedron is written whole where its face is read, in the loop that enters the face's
+  // edges (as a loop of its own, one more pass over the boundary: 0.3 % of a build's instructions).
   // The boundary is a closed triangulated surface: each of its edges (x, y) lies in exactly two
   // boundary triangles, which pass it in opposite directions when both are read outward-oriented. The
   // new tetrahedron on one triangle enters its face through v under the directed edge x -> y in a hash
@@ -956,6 +943,7 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
   const BoundaryFace* boundary = w.boundary.data();
   const index_t* made = w.made.data();
   std::uint32_t* tet_n = tet_n_.data();
+  index_t* tet_v = tet_v_.data();
   index_t* vertex_tet = vertex_tet_.data();
   const std::size_t num_edges = 3 * nb;
   if (w.link_keys.size() < kLinkLoad * num_edges) {
@@ -975,6 +963,13 @@ void DelaunayKernel3D::linkNewTetrahedra(Worker& w) {
     // In a local: read through the pointer, it was loaded again after each store below (which the
     // compiler must assume may alias it).
     const index_t nt = made[k];
+    index_t* const ntv = &tet_v[4 * std::size_t(nt)];
+    store<kShared>(ntv[0], bf.v[0]);  // written out: as a loop of atomic stores it stayed a loop
+    store<kShared>(ntv[1], bf.v[1]);
+    store<kShared>(ntv[2], bf.v[2]);
+    store<kShared>(ntv[3], bf.v[3]);
+    tet_n[4 * std::size_t(nt) + bf.face] = bf.outer;
+    tet_n[bf.outer] = 4 * nt + bf.face;
 #pragma GCC unroll 3
     for (unsigned i = 0; i < 3; ++i) {
       // Face j of the new tetrahedron passes through v and the boundary edge from its position x to

@@ -234,9 +234,10 @@ class DelaunayKernel3D {
   template <class Owner>
   [[gnu::always_inline]] inline index_t walkTo(const double* p, index_t start, Worker& w, const Owner& own,
                                                std::uint64_t guard) const;
-  // Sets the adjacency between the new tetrahedra w.made (on the faces through the new vertex).
+  // Writes the new tetrahedra w.made, one on each boundary face: their vertices, their links with the
+  // tetrahedra outside, and their links with one another (on the faces through the new vertex).
   template <bool kShared>
-  [[gnu::always_inline]] inline void linkNewTetrahedra(Worker& w);
+  [[gnu::always_inline]] inline void writeNewTetrahedra(Worker& w);
   // Moves slots from the pass's pool to w.free until it holds `count`; false when the pool is spent.
   bool takeSlots(Worker& w, std::size_t count);
   void runParallelPass(std::vector<index_t>& pending, unsigned threads, unsigned pass);
