@@ -183,9 +183,10 @@ DelaunayGraph buildDelaunayGraph(const PointView& view, const BuildOptions& opti
                   it.key = mortonKey(q(0), q(1), q(2));
                 }
               });
-  // The order is total (the input index breaks the last ties): the same for every thread count.
-  detail::parallelSort(
-      items,
+  // The order is total (the input index breaks the last ties): the same for every thread count. The
+  // keys are 63 bits (21 per axis); their top 16 bucket the items first.
+  detail::bucketThenSort(
+      items, 1u << 16, [](const Item& it) { return static_cast<unsigned>(it.key >> 47); },
       [](const Item& a, const Item& b) {
         if (a.key != b.key) return a.key < b.key;
         if (a.p.x != b.p.x) return a.p.x < b.p.x;

@@ -1,6 +1,7 @@
 /// \file parallel_sort.h
 /// \brief Sorting a big vector on several threads (internal; the builders' Morton and BRIO orders),
-/// and sorting one that is nearly sorted already (the 3D kernel's batches of ids).
+/// by buckets of a key prefix first (the graph's Morton order), and sorting one that is nearly sorted
+/// already (the 3D kernel's batches of ids).
 ///
 /// Slices are sorted at once, then merged pairwise, the merges of one level at once. Simple, and
 /// enough for the few threads that an O(n log n) sort ahead of an O(n) build needs: the order must
@@ -13,6 +14,7 @@
 #include <vector>
 
 #include "page_memory.h"
+#include "parallel_bucket.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
 
 namespace dw {
@@ -73,6 +75,41 @@ void parallelSort(std::vector<T, A>& v, Less less, unsigned num_threads) {
     v.swap(tmp);
   }
   freeScratch(tmp);
+}
+
+/// Sorts v by `less` (a total order, as for parallelSort), given bucket_of(x) < buckets that never
+/// decreases along `less`: a prefix of the sort key. The items are counted and moved into their
+/// buckets (stably, on all workers), then each bucket is sorted alone, so the comparison sort works on
+/// runs of a few dozen items. 1M Morton-keyed points by their keys' top 16 bits: 0.070 s by
+/// parallelSort on one thread, whose comparisons were coin flips to the branch predictor. A bucket
+/// holding over a quarter of the items (a cloud with a far outlier fills few cells) would sort on one
+/// thread: then parallelSort sorts the whole.
+template <class T, class A, class BucketOf, class Less>
+void bucketThenSort(std::vector<T, A>& v, unsigned buckets, BucketOf bucket_of, Less less,
+                    unsigned num_threads) {
+  const std::size_t n = v.size();
+  const unsigned workers = workerCount(n, num_threads, std::size_t(1) << 16);
+  std::vector<std::size_t> begin(std::size_t(buckets) + 1, 0);
+  std::vector<T, A> out;
+  bool skewed = false;
+  parallelBucket(
+      n, workers, buckets, [&](std::size_t k) { return bucket_of(v[k]); },
+      [&](const std::vector<std::size_t>& sizes) {
+        for (unsigned b = 0; b < buckets; ++b) {
+          begin[b + 1] = begin[b] + sizes[b];
+          skewed |= 4 * sizes[b] > n;
+        }
+        if (!skewed) out.resize(n);
+      },
+      [&](std::size_t k, unsigned b, std::size_t rank) {
+        if (!skewed) out[begin[b] + rank] = v[k];
+      });
+  if (skewed) return parallelSort(v, less, num_threads);
+  v.swap(out);
+  freeScratch(out);
+  parallelFor(buckets, workers, [&](std::size_t b, std::size_t e, unsigned) {
+    for (std::size_t c = b; c < e; ++c) std::sort(v.begin() + begin[c], v.begin() + begin[c + 1], less);
+  });
 }
 
 }  // namespace detail
