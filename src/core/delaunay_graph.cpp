@@ -93,10 +93,6 @@ float safeRadius2(float r) {
   return r2 >= 1e-30 && std::isfinite(f) && double(f) < double(r) * double(r) ? f : 0.f;
 }
 
-// rank[k]: how many of the n keys are smaller than keys[k], which is where keys[k] goes in ascending
-// order when the keys are distinct. Counted without a branch: neighbourhoods are small (~16 on
-// volumetric input), and an insertion sort's comparisons were coin flips to the branch predictor (~16
-// mispredictions per vertex, more than the rest of a build's assembly together). Above 64 keys, a sort.
 // rank[k]: how many of the n (<= N) keys are smaller than keys[k], which is keys[k]'s place in
 // ascending order when the keys are distinct. keys holds N entries, those past n padded with the
 // largest key. Counted without a branch over a fixed N, which the compiler unrolls and, for
