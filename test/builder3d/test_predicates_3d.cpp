@@ -291,6 +291,55 @@ TEST(Predicates3D, Orient3dFacesLanesIsBitIdenticalToOrient3dFaces) {
   EXPECT_GT(zeros, 1000);  // exact zeros, so the tail ran
 }
 
+TEST(Predicates3D, WalkStepStopsOnlyWhereTheSphereHoldsThePointStrictly) {
+  // An insertion's walk stops where insideSphereOrFacesLanes says p lies strictly inside the
+  // circumsphere: that must be insphere's exact sign, never a guess, and where it goes on its
+  // orientations must be orient3dFacesLanes', bit for bit. Random float tetrahedra at several
+  // magnitudes, and nearly cospherical integer ones (the filter undecided: no stop, the walk goes on).
+  std::mt19937_64 rng(23);
+  int stops = 0, on = 0;
+  for (int it = 0; it < 40000; ++it) {
+    dw::Vec3f v[4];
+    double e[3];
+    if (it % 2 == 0) {
+      randomFloatTetrahedron(rng, it, v, e);
+    } else {
+      std::uniform_int_distribution<std::int64_t> u(1 << 15, (1 << 20) - 1);
+      const float p = float(u(rng)), q = float(u(rng)), r = float(u(rng));
+      v[0] = {p, q, r};
+      v[1] = {q, r, p};
+      v[2] = {r, p, q};
+      v[3] = {-p, q, r};
+      e[0] = -q;
+      e[1] = -r;
+      e[2] = p;
+      e[it % 3] += static_cast<int>((it / 3) % 3) - 1;
+    }
+    const dw::predicates::BroadcastPoint query(e);
+    double faces[4], walked[4] = {0.0, 0.0, 0.0, 0.0};
+    dw::predicates::orient3dFacesLanes(v[0], v[1], v[2], v[3], query, faces);
+    double det = 0.0;
+    const bool decided = dw::predicates::insphereLanesFilter(v[0], v[1], v[2], v[3], query, det);
+    const bool stop = dw::predicates::insideSphereOrFacesLanes(v[0], v[1], v[2], v[3], query, walked);
+    ASSERT_EQ(stop, decided && det > 0.0) << "iteration " << it;
+    if (stop) {
+      double d[4][3];
+      toDoubles(v, d);
+      const P a{d[0][0], d[0][1], d[0][2]}, b{d[1][0], d[1][1], d[1][2]}, c{d[2][0], d[2][1], d[2][2]},
+          dd{d[3][0], d[3][1], d[3][2]}, pe{e[0], e[1], e[2]};
+      if (it % 2 == 1) ASSERT_EQ(insphereRef(a, b, c, dd, pe), 1) << "iteration " << it;
+      ++stops;
+      continue;
+    }
+    ++on;
+    for (int f = 0; f < 4; ++f)
+      ASSERT_EQ(std::memcmp(&faces[f], &walked[f], sizeof(double)), 0)
+          << "iteration " << it << ", face " << f;
+  }
+  EXPECT_GT(stops, 1000);
+  EXPECT_GT(on, 1000);
+}
+
 TEST(Predicates3D, FractionalAndHugeMagnitudes) {
   // Scaling by a power of two is exact, so signs must be invariant under it: covers tiny and huge
   // magnitudes (short of underflow/overflow of the degree-5 products) where a fixed-epsilon filter fails.

@@ -1,7 +1,7 @@
 /// \file predicates_3d_lanes.h
 /// \brief The Delaunay kernel's two hot predicates for float points, with a tetrahedron's four
 /// vertices in the four lanes of a vector: insphere (the conflict test, ~43 per inserted point) and
-/// orient3dFaces (a visibility-walk step, ~6.5 per point).
+/// orient3dFaces (a visibility-walk step, ~4 per point), and both at once for an insertion's walk.
 ///
 /// Every lane performs the very operations of the scalar filters (detail::insphereDeterminant,
 /// predicates::orient3dFaces), on the same operands and in the same order; the vector only runs
@@ -81,16 +81,10 @@ struct Differences {
         m1(x * DW_LANES_ROTATE1(y) - DW_LANES_ROTATE1(x) * y),
         m2(x * DW_LANES_ROTATE2(y) - DW_LANES_ROTATE2(x) * y) {}
 };
-}  // namespace lanes
 
-/// insphere's semi-static filter for float a..d: true when it decides, and then `det` is insphere's
-/// value (non-zero). The conflict test branches on this directly: insphere's value compared with zero
-/// again cost ~5 instructions a test.
-[[gnu::always_inline]] inline bool insphereLanesFilter(const Vec3f& a, const Vec3f& b, const Vec3f& c,
-                                                       const Vec3f& d, const BroadcastPoint& e, double& det) {
-  using lanes::V4d;
+/// insphere's semi-static filter on differences made already (insphereLanesFilter's body).
+[[gnu::always_inline]] inline bool insphereFilterOf(const Differences& q, double& det) {
   // Minors (ab, bc, cd, da) and (ac, bd, -ac, -bd).
-  const lanes::Differences q(a, b, c, d, e);
   const V4d &x = q.x, &y = q.y, &z = q.z, &m1 = q.m1, &m2 = q.m2;
   // (abc, bcd, cda, dab): e.g. abc = aez bc - bez ac + cez ab, and cda = cez da + dez ac + aez cd,
   // whose middle term is here dez ac = -(dez (-ac)).
@@ -105,6 +99,15 @@ struct Differences {
   const double l2 = l * l, l5 = l2 * l2 * l;
   return l5 > detail::kStaticMinSq && det * det > detail::kIspStaticSq * l5;
 }
+}  // namespace lanes
+
+/// insphere's semi-static filter for float a..d: true when it decides, and then `det` is insphere's
+/// value (non-zero). The conflict test branches on this directly: insphere's value compared with zero
+/// again cost ~5 instructions a test.
+[[gnu::always_inline]] inline bool insphereLanesFilter(const Vec3f& a, const Vec3f& b, const Vec3f& c,
+                                                       const Vec3f& d, const BroadcastPoint& e, double& det) {
+  return lanes::insphereFilterOf(lanes::Differences(a, b, c, d, e), det);
+}
 
 /// insphere(a, b, c, d, e) for float a..d: the same value, sign-exact (see the file comment).
 [[gnu::always_inline]] inline double insphereLanes(const Vec3f& a, const Vec3f& b, const Vec3f& c,
@@ -114,15 +117,11 @@ struct Differences {
   return detail::insphereTailOfFloats(a, b, c, d, e.p);
 }
 
-/// orient3dFaces for the tetrahedron (q0, q1, q2, q3) of float points and the query p: out[f] is
-/// orient3d of the tetrahedron with p in place of q_f, sign-exact, and the same double as
-/// orient3dFaces gives (see the file comment).
-[[gnu::always_inline]] inline void orient3dFacesLanes(const Vec3f& q0, const Vec3f& q1, const Vec3f& q2,
-                                                      const Vec3f& q3, const BroadcastPoint& p,
-                                                      double out[4]) {
-  using lanes::V4d;
+namespace lanes {
+/// orient3dFacesLanes' filtered values on differences made already: out[f] as there where the filter
+/// decides; returns the faces it left undecided (bit f: face f).
+[[gnu::always_inline]] inline unsigned orient3dFacesOf(const Differences& q, double out[4]) {
   // The scalar form's m03, m32 and m13 are exact negations of m1's and m2's lanes.
-  const lanes::Differences q(q0, q1, q2, q3, p);
   const V4d &x = q.x, &y = q.y, &z = q.z, &m1 = q.m1, &m2 = q.m2;
   // Lane f sums the three products of out[f] in the scalar order, the leading minus of out[0..2]
   // folded into the minors (exact):
@@ -146,10 +145,35 @@ struct Differences {
   const double bound = m3 > detail::kStaticMin ? detail::kO3dStatic * m3 : HUGE_VAL;
   const auto decided = DW_LANES_ABS(o) > V4d{bound, bound, bound, bound};
   for (int f = 0; f < 4; ++f) out[f] = o[f];
-  const unsigned undecided = unsigned(decided[0] == 0) | unsigned(decided[1] == 0) << 1 |
-                             unsigned(decided[2] == 0) << 2 | unsigned(decided[3] == 0) << 3;
+  return unsigned(decided[0] == 0) | unsigned(decided[1] == 0) << 1 | unsigned(decided[2] == 0) << 2 |
+         unsigned(decided[3] == 0) << 3;
+}
+}  // namespace lanes
+
+/// orient3dFaces for the tetrahedron (q0, q1, q2, q3) of float points and the query p: out[f] is
+/// orient3d of the tetrahedron with p in place of q_f, sign-exact, and the same double as
+/// orient3dFaces gives (see the file comment).
+[[gnu::always_inline]] inline void orient3dFacesLanes(const Vec3f& q0, const Vec3f& q1, const Vec3f& q2,
+                                                      const Vec3f& q3, const BroadcastPoint& p,
+                                                      double out[4]) {
+  const unsigned undecided = lanes::orient3dFacesOf(lanes::Differences(q0, q1, q2, q3, p), out);
   if (__builtin_expect(undecided != 0, 0))
     detail::orient3dFacesTailOfFloats(q0, q1, q2, q3, p.p, undecided, out);
+}
+
+/// A walk step that may stop in the cavity: true when insphere's filter decides that p lies strictly
+/// inside the circumsphere of (q0, q1, q2, q3) (insphereLanesFilter's decision, bit for bit);
+/// otherwise false, with out[] as orient3dFacesLanes gives it. Both from one set of differences.
+[[gnu::always_inline]] inline bool insideSphereOrFacesLanes(const Vec3f& q0, const Vec3f& q1, const Vec3f& q2,
+                                                            const Vec3f& q3, const BroadcastPoint& p,
+                                                            double out[4]) {
+  const lanes::Differences q(q0, q1, q2, q3, p);
+  double det;
+  if (lanes::insphereFilterOf(q, det) && det > 0.0) return true;
+  const unsigned undecided = lanes::orient3dFacesOf(q, out);
+  if (__builtin_expect(undecided != 0, 0))
+    detail::orient3dFacesTailOfFloats(q0, q1, q2, q3, p.p, undecided, out);
+  return false;
 }
 
 }  // namespace predicates

@@ -427,9 +427,10 @@ bool DelaunayKernel3D::ownsTet(index_t t, const Owner& own) const {
 }
 
 index_t DelaunayKernel3D::locate(index_t v, index_t start) {
-  return locateInline(v, start);
+  return locateInline<false>(v, start);
 }
 
+template <bool kStopInConflict>
 index_t DelaunayKernel3D::locateInline(index_t v, index_t start) {
   double p[3];
   point(v, p);
@@ -443,7 +444,7 @@ index_t DelaunayKernel3D::locateInline(index_t v, index_t start) {
   // The visibility walk terminates in a Delaunay triangulation; the guard only protects against a
   // corrupted structure and falls back to a scan that cannot loop.
   const std::uint64_t guard = 64 + 4 * static_cast<std::uint64_t>(tet_v_.size() / 4);
-  const index_t found = walkTo(p, t, seq_, Everything{}, guard);
+  const index_t found = walkTo<kStopInConflict>(p, t, seq_, Everything{}, guard);
   stats_.walk_steps += seq_.stats.walk_steps;
   seq_.stats.walk_steps = 0;
   if (found != kNoTet) return found;
@@ -451,7 +452,7 @@ index_t DelaunayKernel3D::locateInline(index_t v, index_t start) {
   return locateByScan(v);
 }
 
-template <class Owner>
+template <bool kStopInConflict, class Owner>
 index_t DelaunayKernel3D::walkTo(const double* p, index_t t, Worker& w, const Owner& own,
                                  std::uint64_t guard) const {
   // With a sharing owner: only through owned tetrahedra (stable under this thread). A walk that would
@@ -474,9 +475,18 @@ index_t DelaunayKernel3D::walkTo(const double* p, index_t t, Worker& w, const Ow
       continue;
     }
     double o[4];
-    predicates::orient3dFacesLanes(points_[tv[0]], points_[tv[1]], points_[tv[2]], points_[tv[3]], query, o);
-    const unsigned r = nextRandom(w.rng);
     w.stats.walk_steps += 1;
+    const Vec3f &q0 = points_[tv[0]], &q1 = points_[tv[1]], &q2 = points_[tv[2]], &q3 = points_[tv[3]];
+    if constexpr (kStopInConflict) {
+      // An insertion needs a tetrahedron in conflict, not the one holding p: the cavity is connected,
+      // so its search may start from any. The first one whose circumsphere holds p strictly (as the
+      // filter decides; the sign is then exact) ends the walk, a few steps before the cavity's middle.
+      // Such a sphere is empty, so p repeats no vertex. The insphere shares the orientations' differences.
+      if (predicates::insideSphereOrFacesLanes(q0, q1, q2, q3, query, o)) return t;
+    } else {
+      predicates::orient3dFacesLanes(q0, q1, q2, q3, query, o);
+    }
+    const unsigned r = nextRandom(w.rng);
     // The first face, from a random one on, with p strictly beyond it (the face back to where the
     // walk came from is not: p was strictly beyond it from the other side). Picked from a bit mask
     // rather than by testing faces in turn: which faces are negative is a coin flip for the branch
@@ -667,7 +677,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
   index_t t;
   if constexpr (kShared) {
     const index_t start = walkStart(v, p, w, own);
-    t = walkTo(p, start, w, own, kSharedWalkGuard);
+    t = walkTo<true>(p, start, w, own, kSharedWalkGuard);
     // The start may lie across the cell (late passes hold scattered points), and a walk from there
     // often has to leave what this thread owns (measured: most deferrals at 16 threads). Ids follow a
     // space-filling curve, so a vertex with a nearby id is usually near v: walk again from a
@@ -675,15 +685,16 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
     for (index_t k = 1; t == kNoTet && k <= kRestartCandidates; ++k) {
       const index_t u = (k & 1) ? v + (k + 1) / 2 : v - (k + 1) / 2;  // v+1, v-1, v+2, ...
       const index_t s = startAtVertex(u, own);
-      if (s != kNoTet && s != start) t = walkTo(p, s, w, own, kSharedWalkGuard);
+      if (s != kNoTet && s != start) t = walkTo<true>(p, s, w, own, kSharedWalkGuard);
     }
     if (t == kNoTet || !ownsTet(t, own)) return false;
   } else {
-    t = locateInline(v, walkStart(v, p, w, own));
+    t = locateInline<true>(v, walkStart(v, p, w, own));
   }
   {
-    // A walk that stops in a finite tetrahedron has v in its closed hull, hence strictly inside its
-    // circumsphere unless v repeats a vertex. Check instead of trusting: a wrong root corrupts the mesh.
+    // A walk that stops in a finite tetrahedron has v strictly inside its circumsphere: decided so, or
+    // v lies in its closed hull and repeats none of its vertices. Checked instead of trusted: a wrong
+    // root corrupts the mesh.
     const index_t* tv = &tet_v_[4 * std::size_t(t)];
     const Vec3f& pv = points_[v];
     for (unsigned k = 0; k < 4; ++k) {
@@ -1121,7 +1132,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
         const std::size_t j = (todo.size() / 2 + k * todo.size() / kTries) % todo.size();
         double p[3];
         point(todo[j], p);
-        t = walkTo(p, t, w, Everything{}, std::uint64_t(1) << 20);
+        t = walkTo<false>(p, t, w, Everything{}, std::uint64_t(1) << 20);
         if (t == kNoTet) break;
         if (ownsTet(t, own[i])) {
           w.last_tet = t;

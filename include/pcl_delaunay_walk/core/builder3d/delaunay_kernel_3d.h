@@ -231,7 +231,9 @@ class DelaunayKernel3D {
   bool startHolds(index_t s, index_t u, const Owner& own) const;
   // Visibility walk from tetrahedron `start` to the one holding p (or the first infinite one beyond
   // the hull); kNoTet after `guard` steps or, with a sharing owner, where it would leave what it owns.
-  template <class Owner>
+  // kStopInConflict (an insertion's walk): it may end sooner, at a finite tetrahedron whose circumsphere
+  // holds p strictly.
+  template <bool kStopInConflict, class Owner>
   [[gnu::always_inline]] inline index_t walkTo(const double* p, index_t start, Worker& w, const Owner& own,
                                                std::uint64_t guard) const;
   // Writes the new tetrahedra w.made, one on each boundary face: their vertices, their links with the
@@ -262,6 +264,7 @@ class DelaunayKernel3D {
   static EdgeChunks edgesOfRanges(RangeLists&& lists, unsigned num_threads, std::size_t edge_bound = 0);
   void initialTetrahedron(index_t a, index_t b, index_t c, index_t d);
   index_t locate(index_t v, index_t start);
+  template <bool kStopInConflict>
   [[gnu::always_inline]] inline index_t locateInline(index_t v, index_t start);  // locate's body
   index_t locateByScan(index_t v) const;
   // Conflict of tetrahedron t with vertex v at p (v's coordinates, broadcast once per insertion).
