@@ -1222,6 +1222,9 @@ struct DelaunayKernel3D::RangeLists {
   // ascending ids each): list (w, r) is quadruples [at[i], at[i + 1]) for i = w * num_ranges + r.
   SlotArray<index_t> quads;
   std::vector<std::size_t> at;
+  // List i's quadruples [at[i], whole[i]) have s0, s1 and s2 in its range (all six pairs are its
+  // occurrences); those from whole[i] on straddle ranges and are checked pair by pair.
+  std::vector<std::size_t> whole;
   std::size_t rangeOf(index_t v) const { return static_cast<std::size_t>((v - first) >> width_bits); }
   std::size_t rangeStart(std::size_t r) const { return std::min(last, first + (r << width_bits)); }
   std::size_t list(unsigned w, std::size_t r) const { return std::size_t(w) * num_ranges + r; }
@@ -1373,14 +1376,14 @@ DelaunayKernel3D::RangeLists DelaunayKernel3D::listByRange(const SlotArray<index
       if (s[3] >= kDead) continue;
       // The ranges of the three possible owners s0 <= s1 <= s2; with Morton ids nearly always one.
       if (s[0] >= first && s[2] < last && out.rangeOf(s[0]) == out.rangeOf(s[2])) {
-        emit(out.rangeOf(s[0]), s);
+        emit(out.rangeOf(s[0]), s, std::true_type{});
         continue;
       }
       std::size_t previous = num_ranges;
       for (unsigned j = 0; j < 3; ++j) {
         if (s[j] < first || s[j] >= last) continue;
         const std::size_t r = out.rangeOf(s[j]);
-        if (r != previous) emit(r, s);
+        if (r != previous) emit(r, s, std::false_type{});
         previous = r;
       }
     }
@@ -1389,7 +1392,7 @@ DelaunayKernel3D::RangeLists DelaunayKernel3D::listByRange(const SlotArray<index
   at.assign(std::size_t(out.workers) * num_ranges + 1, 0);
   parallelFor(nt, out.workers, [&](std::size_t tb, std::size_t te, unsigned w) {
     std::size_t* count = &at[out.list(w, 0) + 1];
-    forEachEntry(tb, te, [&](std::size_t r, const index_t*) { ++count[r]; });
+    forEachEntry(tb, te, [&](std::size_t r, const index_t*, auto) { ++count[r]; });
   });
   for (std::size_t i = 1; i < at.size(); ++i) at[i] += at[i - 1];
   // The lists' array: the donor's storage when it is big enough (the adjacency, freed next anyway,
@@ -1405,14 +1408,18 @@ DelaunayKernel3D::RangeLists DelaunayKernel3D::listByRange(const SlotArray<index
     out.quads.resize(words);
   }
   // The fill runs over the same slices as the count (parallelFor's blocks depend on nt and the worker
-  // count only).
+  // count only). Each list fills from its front with whole quadruples and from its back with
+  // straddling ones; where they meet is `whole`.
+  out.whole.assign(at.size() - 1, 0);
   parallelFor(nt, out.workers, [&](std::size_t tb, std::size_t te, unsigned w) {
-    std::vector<std::size_t> next(at.begin() + out.list(w, 0), at.begin() + out.list(w, 0) + num_ranges);
+    std::vector<std::size_t> front(at.begin() + out.list(w, 0), at.begin() + out.list(w, 0) + num_ranges);
+    std::vector<std::size_t> back(at.begin() + out.list(w, 0) + 1,
+                                  at.begin() + out.list(w, 0) + 1 + num_ranges);
     index_t* quads = out.quads.data();
     for (std::size_t b = tb; b < te;) {
       const std::size_t e = std::min(te, stepEnd(b));
-      forEachEntry(b, e, [&](std::size_t r, const index_t* s) {
-        index_t* q = quads + 4 * next[r]++;
+      forEachEntry(b, e, [&](std::size_t r, const index_t* s, auto whole) {
+        index_t* q = quads + 4 * (decltype(whole)::value ? front[r]++ : --back[r]);
         q[0] = s[0];
         q[1] = s[1];
         q[2] = s[2];
@@ -1421,6 +1428,7 @@ DelaunayKernel3D::RangeLists DelaunayKernel3D::listByRange(const SlotArray<index
       if (give_back != nullptr) detail::releaseSlice(give_back->data() + 4 * b, 16 * (e - b), 0, 1);
       b = e;
     }
+    std::copy(front.begin(), front.end(), out.whole.begin() + out.list(w, 0));
   });
   return out;
 }
@@ -1453,11 +1461,23 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgesOfRanges(RangeLists&& in, un
     for (std::size_t r = part; r < num_ranges; r += parts) {
       const std::size_t lo = in.rangeStart(r), hi = in.rangeStart(r + 1);
       // Occurrences per a, then the bucket of each a. Each quadruple is sorted, so each pair's
-      // smaller endpoint is known, and the only tests left are whether s0, s1, s2 lie in the range,
-      // nearly always true with Morton ids.
+      // smaller endpoint is known, and the only tests left are whether s0, s1, s2 lie in the range.
+      // The listing made them: it put the quadruples they all lie in (nearly all, with Morton ids)
+      // first in each list, and only the straddling rest is tested pair by pair.
       auto forEachOccurrence = [&](auto&& fn) {
-        for (unsigned w = 0; w < in.workers; ++w)
-          for (std::size_t k = in.at[in.list(w, r)]; k < in.at[in.list(w, r) + 1]; ++k) {
+        for (unsigned w = 0; w < in.workers; ++w) {
+          const std::size_t i = in.list(w, r);
+          for (std::size_t k = in.at[i]; k < in.whole[i]; ++k) {
+            const index_t* s = in.quads.data() + 4 * k;
+            const std::size_t a0 = s[0] - lo, a1 = s[1] - lo, a2 = s[2] - lo;
+            fn(a0, s[1]);
+            fn(a0, s[2]);
+            fn(a0, s[3]);
+            fn(a1, s[2]);
+            fn(a1, s[3]);
+            fn(a2, s[3]);
+          }
+          for (std::size_t k = in.whole[i]; k < in.at[i + 1]; ++k) {
             const index_t* s = in.quads.data() + 4 * k;
             if (s[0] >= lo && s[0] < hi) {
               fn(s[0] - lo, s[1]);
@@ -1470,6 +1490,7 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgesOfRanges(RangeLists&& in, un
             }
             if (s[2] >= lo && s[2] < hi) fn(s[2] - lo, s[3]);
           }
+        }
       };
       bucket_offset.assign(hi - lo + 1, 0);
       forEachOccurrence([&](std::size_t i, index_t) { ++bucket_offset[i + 1]; });
