@@ -1203,7 +1203,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
 //     occurrences (about 6 per tetrahedron, spread over the vertices) fit a bounded buffer;
 //  2. (listByRange) list, per range, the vertex quadruples, sorted, of the tetrahedra that have an
 //     edge owned there (a tetrahedron has three possible smaller endpoints; with Morton ids they are
-//     nearly always in one range);
+//     nearly always in one range, and such whole quadruples come first in each list);
 //  3. (edgesOfRanges) per range, in parallel: count the occurrences per a, bucket the b's by a, drop
 //     repeats, and write the range's chunk.
 // The lists hold the quadruples themselves, sorted once, not tetrahedron ids: through ids, stage 3
