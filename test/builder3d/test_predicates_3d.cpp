@@ -295,7 +295,8 @@ TEST(Predicates3D, WalkStepStopsOnlyWhereTheSphereHoldsThePointStrictly) {
   // An insertion's walk stops where insideSphereOrFacesLanes says p lies strictly inside the
   // circumsphere: that must be insphere's exact sign, never a guess, and where it goes on its
   // orientations must be orient3dFacesLanes', bit for bit. Random float tetrahedra at several
-  // magnitudes, and nearly cospherical integer ones (the filter undecided: no stop, the walk goes on).
+  // magnitudes, and nearly cospherical integer ones, where the filter often cannot decide (no stop)
+  // and every stop is checked against the exact sign.
   std::mt19937_64 rng(23);
   int stops = 0, on = 0;
   for (int it = 0; it < 40000; ++it) {
