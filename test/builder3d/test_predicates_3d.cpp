@@ -77,6 +77,21 @@ void randomFloatTetrahedron(std::mt19937_64& rng, int it, dw::Vec3f v[4], double
   for (int c = 0; c < 3; ++c) query[c] = double(scale) * unit_double(rng);
 }
 
+// Permutations and sign flips of one (p, q, r) on a sphere of radius < 2^21, exact in float, and a
+// query on the same sphere nudged by the iteration: insphere is 0 or nearly, so the filter hands over.
+void nearlyCosphericalTetrahedron(std::mt19937_64& rng, int it, dw::Vec3f v[4], double query[3]) {
+  std::uniform_int_distribution<std::int64_t> u(1 << 15, (1 << 20) - 1);
+  const float p = float(u(rng)), q = float(u(rng)), r = float(u(rng));
+  v[0] = {p, q, r};
+  v[1] = {q, r, p};
+  v[2] = {r, p, q};
+  v[3] = {-p, q, r};
+  query[0] = -q;
+  query[1] = -r;
+  query[2] = p;
+  query[it % 3] += static_cast<int>((it / 3) % 3) - 1;
+}
+
 void toDoubles(const dw::Vec3f v[4], double d[4][3]) {
   for (int k = 0; k < 4; ++k) {
     d[k][0] = v[k].x;
@@ -211,20 +226,10 @@ TEST(Predicates3D, InsphereLanesIsBitIdenticalToInsphere) {
     dw::Vec3f v[4];
     double e[3];
     const bool cospherical = it % 2 == 1;
-    if (!cospherical) {
+    if (!cospherical)
       randomFloatTetrahedron(rng, it, v, e);
-    } else {  // permutations and sign flips of one (p, q, r) on a sphere of radius < 2^21, e nudged
-      std::uniform_int_distribution<std::int64_t> u(1 << 15, (1 << 20) - 1);
-      const float p = float(u(rng)), q = float(u(rng)), r = float(u(rng));
-      v[0] = {p, q, r};
-      v[1] = {q, r, p};
-      v[2] = {r, p, q};
-      v[3] = {-p, q, r};
-      e[0] = -q;
-      e[1] = -r;
-      e[2] = p;
-      e[it % 3] += static_cast<int>((it / 3) % 3) - 1;
-    }
+    else
+      nearlyCosphericalTetrahedron(rng, it, v, e);
     double d[4][3];
     toDoubles(v, d);
     const double scalar = insphere(d[0], d[1], d[2], d[3], e);
@@ -302,20 +307,10 @@ TEST(Predicates3D, WalkStepStopsOnlyWhereTheSphereHoldsThePointStrictly) {
   for (int it = 0; it < 40000; ++it) {
     dw::Vec3f v[4];
     double e[3];
-    if (it % 2 == 0) {
+    if (it % 2 == 0)
       randomFloatTetrahedron(rng, it, v, e);
-    } else {
-      std::uniform_int_distribution<std::int64_t> u(1 << 15, (1 << 20) - 1);
-      const float p = float(u(rng)), q = float(u(rng)), r = float(u(rng));
-      v[0] = {p, q, r};
-      v[1] = {q, r, p};
-      v[2] = {r, p, q};
-      v[3] = {-p, q, r};
-      e[0] = -q;
-      e[1] = -r;
-      e[2] = p;
-      e[it % 3] += static_cast<int>((it / 3) % 3) - 1;
-    }
+    else
+      nearlyCosphericalTetrahedron(rng, it, v, e);
     const dw::predicates::BroadcastPoint query(e);
     double faces[4], walked[4] = {0.0, 0.0, 0.0, 0.0};
     dw::predicates::orient3dFacesLanes(v[0], v[1], v[2], v[3], query, faces);
