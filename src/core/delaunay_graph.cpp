@@ -122,8 +122,7 @@ DW_TARGET_V3 void rankV3(const std::int64_t* keys, index_t* rank) {
 
 template <int N>
 void rankOnThisCpu(const std::int64_t* keys, index_t* rank) {
-  static const bool v3 = detail::cpuHasX86_64V3();
-  v3 ? rankV3<N>(keys, rank) : rankBaseline<N>(keys, rank);
+  detail::cpuHasX86_64V3() ? rankV3<N>(keys, rank) : rankBaseline<N>(keys, rank);
 }
 
 // The ranks of n keys (non-negative; keys has room for max(n, kRankedMax) entries, the padding is

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstddef>
+#include <type_traits>
 #include <vector>
 
 #include "pcl_delaunay_walk/core/parallel_for.h"
@@ -16,7 +17,8 @@ namespace dw {
 namespace detail {
 
 /// bucket_of(k) < buckets for k in [0, n) (called twice per item); sized(sizes) once, with every
-/// bucket's size, before place(k, bucket, rank) is called for every item.
+/// bucket's size, before place(k, bucket, rank) is called for every item. A sized() that returns bool
+/// may return false to skip the placing (the caller has seen enough in the sizes).
 template <class BucketOf, class Sized, class Place>
 void parallelBucket(std::size_t n, unsigned workers, unsigned buckets, BucketOf&& bucket_of, Sized&& sized,
                     Place&& place) {
@@ -32,7 +34,12 @@ void parallelBucket(std::size_t n, unsigned workers, unsigned buckets, BucketOf&
       at[std::size_t(w) * buckets + b] = sizes[b];  // the block's first rank in the bucket
       sizes[b] += c;
     }
-  sized(static_cast<const std::vector<std::size_t>&>(sizes));
+  const std::vector<std::size_t>& all = sizes;
+  if constexpr (std::is_same_v<decltype(sized(all)), bool>) {
+    if (!sized(all)) return;
+  } else {
+    sized(all);
+  }
   parallelFor(n, workers, [&](std::size_t begin, std::size_t end, unsigned w) {
     std::size_t* next = &at[std::size_t(w) * buckets];
     for (std::size_t k = begin; k < end; ++k) {

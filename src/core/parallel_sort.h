@@ -100,10 +100,9 @@ void bucketThenSort(std::vector<T, A>& v, unsigned buckets, BucketOf bucket_of, 
           skewed |= 4 * sizes[b] > n;
         }
         if (!skewed) out.resize(n);
+        return !skewed;
       },
-      [&](std::size_t k, unsigned b, std::size_t rank) {
-        if (!skewed) out[begin[b] + rank] = v[k];
-      });
+      [&](std::size_t k, unsigned b, std::size_t rank) { out[begin[b] + rank] = v[k]; });
   if (skewed) return parallelSort(v, less, num_threads);
   v.swap(out);
   freeScratch(out);

@@ -323,7 +323,9 @@ TEST(Predicates3D, WalkStepStopsOnlyWhereTheSphereHoldsThePointStrictly) {
       toDoubles(v, d);
       const P a{d[0][0], d[0][1], d[0][2]}, b{d[1][0], d[1][1], d[1][2]}, c{d[2][0], d[2][1], d[2][2]},
           dd{d[3][0], d[3][1], d[3][2]}, pe{e[0], e[1], e[2]};
-      if (it % 2 == 1) ASSERT_EQ(insphereRef(a, b, c, dd, pe), 1) << "iteration " << it;
+      if (it % 2 == 1) {
+        ASSERT_EQ(insphereRef(a, b, c, dd, pe), 1) << "iteration " << it;
+      }
       ++stops;
       continue;
     }
