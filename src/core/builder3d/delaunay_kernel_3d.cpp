@@ -1200,12 +1200,21 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
 // Every edge (a, b), a < b, lies in ~5 finite tetrahedra. Rather than walking each vertex's star
 // (random access into the tetrahedra: measured 5 s for 1M points), the tetrahedra are streamed:
 //  1. cut [first, last) into ranges of a with the same number of vertices, so that each range's edge
-//     occurrences (about 6 per tetrahedron, spread over the vertices) fit a bounded buffer;
+//     occurrences (3 per tetrahedron, see below, spread over the vertices) fit a bounded buffer;
 //  2. (listByRange) list, per range, the vertex quadruples, sorted, of the tetrahedra that have an
 //     edge owned there (a tetrahedron has three possible smaller endpoints; with Morton ids they are
 //     nearly always in one range, and such whole quadruples come first in each list);
 //  3. (edgesOfRanges) per range, in parallel: count the occurrences per a, bucket the b's by a, drop
 //     repeats, and write the range's chunk.
+// A tetrahedron gives only those of its edges at which it is an ascent of the edge's ring. The
+// tetrahedra around an edge (a, b) form a closed ring, each written positively as (a, b, x, y) with x
+// and y consecutive other vertices (consistent orientation: two neighbours in the ring induce opposite
+// orientations on their shared face, so every one of them reads the ring in the same direction, x
+// before y). A closed ring of distinct ids rises somewhere (x < y), kInfinite counting as the largest
+// id, so every edge is given at least once, and about half as often as by all six edges (~2.5 times
+// instead of ~5). The test is local: with the quadruple sorted, which of its edges rise is the parity
+// of the sort: an even one gives (s0, s1), (s0, s3), (s1, s2) and (s2, s3), an odd one (s0, s2) and
+// (s1, s3). The hull's edges lie in infinite tetrahedra too, which are listed for their finite edges.
 // The lists hold the quadruples themselves, sorted once, not tetrahedron ids: through ids, stage 3
 // fetched every tetrahedron from wherever its slot lay (slots follow the order of the cavities that
 // freed them, not the vertex ids) and sorted its vertices, twice per range (100k points on 2
@@ -1218,12 +1227,15 @@ struct DelaunayKernel3D::RangeLists {
   unsigned width_bits = 0;  // ranges are 2^width_bits ids wide (a shift, not a 64-bit division)
   std::size_t num_ranges = 0;
   unsigned workers = 0;
-  // The lists, worker by worker, each worker's range by range, in one array of quadruples (four
-  // ascending ids each): list (w, r) is quadruples [at[i], at[i + 1]) for i = w * num_ranges + r.
+  // The lists, worker by worker, each worker's range by range, in one array of quadruples: list (w, r)
+  // is quadruples [at[i], at[i + 1]) for i = w * num_ranges + r. A quadruple q is the sorted ids,
+  // s0 < s1 < s2 < s3, of a tetrahedron whose sort was even, and (s0, s2, s1, s3) of one whose sort
+  // was odd: both give (q0, q1) and (q2, q3), an even one (q1 < q2) also (q0, q3) and (q1, q2).
   SlotArray<index_t> quads;
   std::vector<std::size_t> at;
-  // List i's quadruples [at[i], whole[i]) have s0, s1 and s2 in its range (all six pairs are its
-  // occurrences); those from whole[i] on straddle ranges and are checked pair by pair.
+  // List i's quadruples [at[i], whole[i]) are finite and have s0, s1 and s2 in its range (all their
+  // pairs are its occurrences); those from whole[i] on straddle ranges or hold kInfinite, and are
+  // checked pair by pair.
   std::vector<std::size_t> whole;
   std::size_t rangeOf(index_t v) const { return static_cast<std::size_t>((v - first) >> width_bits); }
   std::size_t rangeStart(std::size_t r) const { return std::min(last, first + (r << width_bits)); }
@@ -1325,7 +1337,7 @@ DelaunayKernel3D::RangeLists DelaunayKernel3D::listByRange(const SlotArray<index
   out.first = first;
   out.last = last;
 
-  // 1. Ranges: `budget` occurrences each, estimated as 6 per tetrahedron slot spread over all points
+  // 1. Ranges: `budget` occurrences each, estimated as 3 per tetrahedron slot spread over all points
   // (a range holding more only makes its buffer bigger). At least one range per thread. Each thread
   // holds one range's buffer, so the budget shrinks with the thread count (a floor of 2^18 gave the
   // dragon's 16 threads 38 bytes per point of buffers, and the extraction a peak above the insertion's;
@@ -1336,7 +1348,7 @@ DelaunayKernel3D::RangeLists DelaunayKernel3D::listByRange(const SlotArray<index
   const std::size_t span = last - first;
   const std::size_t budget = std::min<std::size_t>(
       std::size_t(1) << 19, std::max<std::size_t>(std::size_t(1) << 15, 2 * span / num_threads));
-  const std::size_t per_vertex = std::max<std::size_t>(1, 6 * nt / std::max<std::size_t>(n, 1));
+  const std::size_t per_vertex = std::max<std::size_t>(1, 3 * nt / std::max<std::size_t>(n, 1));
   const std::size_t wanted =
       std::min(span, std::max<std::size_t>(num_threads, (span * per_vertex + budget - 1) / budget));
   while ((std::size_t(1) << out.width_bits) * wanted < span) ++out.width_bits;
@@ -1345,9 +1357,8 @@ DelaunayKernel3D::RangeLists DelaunayKernel3D::listByRange(const SlotArray<index
   const std::size_t num_ranges = out.num_ranges;
 
   // 2. Worker w takes the w-th slice of the tetrahedra: per range, it counts the tetrahedra with an
-  // edge owned there, then copies their sorted quadruples into its part of the lists, each list sized
-  // exactly. Dead slots and infinite tetrahedra (whose largest id is kDead or kInfinite) are skipped:
-  // every edge between finite vertices lies in a finite tetrahedron.
+  // edge owned there, then copies their quadruples into its part of the lists, each list sized
+  // exactly. Dead slots (one id kDead, which sorts below kInfinite) are skipped.
   // Copying the quadruples would hold the tetrahedra twice (the dragon on 16 device threads peaked at
   // 268 bytes per point, the insertion at 247): with `give_back`, the fill gives back the pages of what
   // it has listed in steps of 1 MiB, whose ends lie on 1 MiB boundaries of the array's addresses, so
@@ -1362,28 +1373,34 @@ DelaunayKernel3D::RangeLists DelaunayKernel3D::listByRange(const SlotArray<index
     for (std::size_t t = from; t < to; ++t) {
       const index_t* tv = &tet_v_[4 * t];
       index_t s[4] = {tv[0], tv[1], tv[2], tv[3]};
-      // A network of branch-free swaps: which id is smaller is a coin flip to the branch predictor.
+      // A network of branch-free swaps: which id is smaller is a coin flip to the branch predictor
+      // (GCC 12 compiles std::min and std::max here into branches). `odd` is the sort's parity.
+      index_t odd = 0;
       auto order = [&](int i, int j) {
-        const index_t d = (s[i] ^ s[j]) & (0u - index_t(s[j] < s[i]));
+        const index_t swap = index_t(s[j] < s[i]);
+        const index_t d = (s[i] ^ s[j]) & (0u - swap);
         s[i] ^= d;
         s[j] ^= d;
+        odd ^= swap;
       };
       order(0, 1);
       order(2, 3);
       order(0, 2);
       order(1, 3);
       order(1, 2);
-      if (s[3] >= kDead) continue;
+      if (s[3] == kDead || s[2] >= kDead) continue;
       // The ranges of the three possible owners s0 <= s1 <= s2; with Morton ids nearly always one.
-      if (s[0] >= first && s[2] < last && out.rangeOf(s[0]) == out.rangeOf(s[2])) {
-        emit(out.rangeOf(s[0]), s, std::true_type{});
+      const index_t d = (s[1] ^ s[2]) & (0u - odd);  // odd: stored as (s0, s2, s1, s3), no branch
+      const index_t q[4] = {s[0], s[1] ^ d, s[2] ^ d, s[3]};
+      if (s[0] >= first && s[2] < last && out.rangeOf(s[0]) == out.rangeOf(s[2]) && s[3] != kInfinite) {
+        emit(out.rangeOf(s[0]), q, std::true_type{});
         continue;
       }
       std::size_t previous = num_ranges;
       for (unsigned j = 0; j < 3; ++j) {
         if (s[j] < first || s[j] >= last) continue;
         const std::size_t r = out.rangeOf(s[j]);
-        if (r != previous) emit(r, s, std::false_type{});
+        if (r != previous) emit(r, q, std::false_type{});
         previous = r;
       }
     }
@@ -1460,44 +1477,48 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgesOfRanges(RangeLists&& in, un
     std::vector<std::uint64_t> seen;
     for (std::size_t r = part; r < num_ranges; r += parts) {
       const std::size_t lo = in.rangeStart(r), hi = in.rangeStart(r + 1);
-      // Occurrences per a, then the bucket of each a. Each quadruple is sorted, so each pair's
-      // smaller endpoint is known, and the only tests left are whether s0, s1, s2 lie in the range.
-      // The listing made them: it put the quadruples they all lie in (nearly all, with Morton ids)
-      // first in each list, and only the straddling rest is tested pair by pair.
+      // Occurrences per a, then the bucket of each a. Each quadruple says which of its pairs it gives
+      // and each pair's smaller endpoint (see RangeLists), and the only tests left are whether s0, s1,
+      // s2 lie in the range. The listing made them: it put the finite quadruples they all lie in
+      // (nearly all, with Morton ids) first in each list, and only the rest is tested pair by pair.
+      // fn(a - lo, b, gives): whether an even quadruple's two more pairs are given is a coin flip, so
+      // they are passed with the flag rather than branched on.
       auto forEachOccurrence = [&](auto&& fn) {
         for (unsigned w = 0; w < in.workers; ++w) {
           const std::size_t i = in.list(w, r);
           for (std::size_t k = in.at[i]; k < in.whole[i]; ++k) {
-            const index_t* s = in.quads.data() + 4 * k;
-            const std::size_t a0 = s[0] - lo, a1 = s[1] - lo, a2 = s[2] - lo;
-            fn(a0, s[1]);
-            fn(a0, s[2]);
-            fn(a0, s[3]);
-            fn(a1, s[2]);
-            fn(a1, s[3]);
-            fn(a2, s[3]);
+            const index_t* q = in.quads.data() + 4 * k;
+            const bool even = q[1] < q[2];
+            fn(q[0] - lo, q[1], true);
+            fn(q[2] - lo, q[3], true);
+            fn(q[0] - lo, q[3], even);
+            fn(q[1] - lo, q[2], even);
           }
           for (std::size_t k = in.whole[i]; k < in.at[i + 1]; ++k) {
-            const index_t* s = in.quads.data() + 4 * k;
-            if (s[0] >= lo && s[0] < hi) {
-              fn(s[0] - lo, s[1]);
-              fn(s[0] - lo, s[2]);
-              fn(s[0] - lo, s[3]);
+            const index_t* q = in.quads.data() + 4 * k;
+            const bool even = q[1] < q[2], finite = q[3] != kInfinite;
+            auto here = [&](index_t a) { return a >= lo && a < hi; };
+            if (here(q[0])) {
+              fn(q[0] - lo, q[1], true);
+              if (even && finite) fn(q[0] - lo, q[3], true);
             }
-            if (s[1] >= lo && s[1] < hi) {
-              fn(s[1] - lo, s[2]);
-              fn(s[1] - lo, s[3]);
-            }
-            if (s[2] >= lo && s[2] < hi) fn(s[2] - lo, s[3]);
+            if (finite && here(q[2])) fn(q[2] - lo, q[3], true);
+            if (even && here(q[1])) fn(q[1] - lo, q[2], true);
           }
         }
       };
       bucket_offset.assign(hi - lo + 1, 0);
-      forEachOccurrence([&](std::size_t i, index_t) { ++bucket_offset[i + 1]; });
+      forEachOccurrence([&](std::size_t i, index_t, bool gives) { bucket_offset[i + 1] += gives; });
       for (std::size_t i = 0; i < hi - lo; ++i) bucket_offset[i + 1] += bucket_offset[i];
-      bucket.resize(bucket_offset.back());
+      bucket.resize(bucket_offset.back() + 1);  // the last entry takes the writes of pairs not given
       fill.assign(bucket_offset.begin(), bucket_offset.end() - 1);
-      forEachOccurrence([&](std::size_t i, index_t b) { bucket[fill[i]++] = b; });
+      const std::size_t spare = bucket_offset.back();
+      forEachOccurrence([&](std::size_t i, index_t b, bool gives) {
+        // The select as a mask: written as `gives ? ... : ...`, GCC branched (a coin flip).
+        const std::size_t at = fill[i];
+        bucket[spare ^ ((at ^ spare) & (0 - std::size_t(gives)))] = b;
+        fill[i] = static_cast<std::uint32_t>(at + gives);
+      });
       for (unsigned w = 0; w < in.workers; ++w) {  // the range's lists are done with: pages back
         const std::size_t i = in.list(w, r);
         detail::releaseSlice(in.quads.data() + 4 * in.at[i], 16 * (in.at[i + 1] - in.at[i]), 0, 1);
