@@ -26,6 +26,7 @@
 #include "pcl_delaunay_walk/core/point_file.h"
 #include "pcl_delaunay_walk/core/process_memory.h"
 #include "pcl_delaunay_walk/core/space_filling_curve.h"
+#include "pcl_delaunay_walk/core/thread_team.h"
 
 namespace {
 
@@ -64,6 +65,9 @@ Run buildOnce(const std::vector<dw::Vec3f>& pts, unsigned threads, bool validate
   dw::resetPeakResident();
   const long base_kb = dw::processStatusKb("VmHWM:");
   const auto t0 = std::chrono::steady_clock::now();
+  // As dw::incrementalDelaunayEdges: one team of threads for every parallel loop of the build.
+  dw::ThreadTeam team(threads);
+  dw::ThreadTeam::Scope scope(team);
   std::vector<std::size_t> rounds;
   std::vector<dw::index_t> order = dw::builder3d::brioOrder(pts, rounds, 0, threads);
   const auto t1 = std::chrono::steady_clock::now();

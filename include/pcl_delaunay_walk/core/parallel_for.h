@@ -13,6 +13,7 @@
 #include <atomic>
 #include <cstddef>
 #include <exception>
+#include <functional>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -30,6 +31,22 @@ inline unsigned workerCount(std::size_t n, unsigned requested, std::size_t min_b
   const std::size_t by_size = std::max<std::size_t>(1, n / std::max<std::size_t>(1, min_block));
   return static_cast<unsigned>(std::min<std::size_t>(resolveThreads(requested), by_size));
 }
+
+namespace detail {
+/// What parallelFor and parallelForDynamic run their workers on instead of fresh threads, when one is
+/// installed on the calling thread (dw::ThreadTeam::Scope, thread_team.h).
+class LoopRunner {
+ public:
+  /// Runs body(w) for every w < workers, w = 0 on the calling thread, and returns true; or runs nothing
+  /// and returns false when it cannot take them now (too few threads, or a loop already running).
+  virtual bool tryRun(unsigned workers, const std::function<void(unsigned)>& body) = 0;
+
+ protected:
+  ~LoopRunner() = default;
+};
+/// The calling thread's runner (null: none; each loop starts its own threads).
+LoopRunner*& loopRunnerOfThisThread();
+}  // namespace detail
 
 /// Calls body(begin, end, worker) once for each of `workers` contiguous blocks of [0, n): block w is
 /// [w c, min(n, (w + 1) c)) with c = ceil(n / workers). Rethrows the first exception (by worker index)
@@ -51,6 +68,12 @@ void parallelFor(std::size_t n, unsigned workers, Body&& body) {
       errors[w] = std::current_exception();
     }
   };
+  if (detail::LoopRunner* team = detail::loopRunnerOfThisThread();
+      team != nullptr && team->tryRun(workers, run)) {
+    for (auto& e : errors)
+      if (e) std::rethrow_exception(e);
+    return;
+  }
   pool.reserve(workers - 1);
   unsigned started = 1;
   // A thread that cannot be started (resource limits) is not an error: its block runs here instead.
@@ -119,6 +142,11 @@ void parallelForDynamic(std::size_t count, unsigned threads, F&& fn) {
   if (workers <= 1) return runEachInOrder(count, fn);
   detail::TaskClaims claims;
   auto body = [&]() { claims.drain(count, fn); };
+  if (detail::LoopRunner* team = detail::loopRunnerOfThisThread();
+      team != nullptr && team->tryRun(workers, [&](unsigned) { body(); })) {
+    claims.rethrow();
+    return;
+  }
   std::vector<std::thread> pool;
   pool.reserve(workers - 1);
   for (unsigned w = 1; w < workers; ++w) {

@@ -14,6 +14,7 @@
 #include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
 #include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
 #include "pcl_delaunay_walk/core/graph_builder.h"
+#include "pcl_delaunay_walk/core/thread_team.h"
 
 namespace dw {
 
@@ -29,6 +30,10 @@ EdgeList incrementalDelaunayEdges(const std::vector<Vec3f>& points, const BuildO
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
       throw Error("dw::incrementalDelaunayEdges: non-finite coordinate in the input");
 
+  // One team of threads for every parallel loop of the job: the order, each parallel pass (about five
+  // loops each) and the extraction (thread_team.h).
+  ThreadTeam team(threads);
+  ThreadTeam::Scope scope(team);
   builder3d::DelaunayKernel3D::EdgeChunks chunks;
   {
     builder3d::DelaunayKernel3D kernel;

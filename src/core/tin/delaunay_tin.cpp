@@ -17,8 +17,8 @@
 #include "merge_scheduler.h"
 #include "pcl_delaunay_walk/core/parallel_for.h"
 #include "pcl_delaunay_walk/core/predicates_2d.h"
+#include "pcl_delaunay_walk/core/thread_team.h"
 #include "strip_merge.h"
-#include "worker_team.h"
 
 namespace dw {
 namespace tin {
@@ -163,9 +163,9 @@ TinResult triangulate(std::vector<double>&& x, std::vector<double>&& y, const Ti
       tn_ready = done.get_future().share();
     }
   };
-  // One team of threads for every parallel pass of this call (see worker_team.h). Declared after the
+  // One team of threads for every parallel pass of this call (see thread_team.h). Declared after the
   // helper's guard, so on the way out the team is stopped before the helper is waited for.
-  detail::WorkerTeam team(threads);
+  ThreadTeam team(threads);
 
   // Input is read in chunks in parallel (on many cores a serial pass here would cap the speed-up):
   // pass A takes the strip sample (and maps the output array's pages), pass B checks every point and

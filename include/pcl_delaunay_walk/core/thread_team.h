@@ -1,13 +1,15 @@
-/// \file worker_team.h
-/// \brief A team of threads kept for one whole triangulation (internal).
+/// \file thread_team.h
+/// \brief A team of threads kept for a whole job. parallelFor and parallelForDynamic run on it, while a
+/// ThreadTeam::Scope lives on the calling thread, instead of starting threads on every call.
 ///
-/// Why not dw::parallelFor / parallelForDynamic: they start and join fresh threads on every call, and
-/// the TIN has about ten parallel passes. On 16 cores that is 150 thread starts and joins per call,
-/// several milliseconds of serial work in the caller at 2M points, where the whole 16-thread run
-/// takes ~0.15 s. The team starts its threads once; each pass then costs one wake-up.
+/// Why: each parallelFor starts and joins fresh threads, 36-47 us with 2 workers and 378-457 us with
+/// 16 (docs/benchmarks.md, "Session 20"). The 3D builder makes about five such calls per parallel pass
+/// and up to 13 passes on 16 threads; the TIN has about ten passes, several milliseconds of serial work
+/// in the caller at 2M points, where its whole 16-thread run takes ~0.15 s. A team starts its threads
+/// once; each loop then costs one wake-up. Which indices a worker handles does not change (the loops'
+/// blocks depend only on the count and the worker number), so neither does any result.
 #pragma once
 
-#include <atomic>
 #include <condition_variable>
 #include <cstddef>
 #include <exception>
@@ -19,14 +21,12 @@
 #include "pcl_delaunay_walk/core/parallel_for.h"
 
 namespace dw {
-namespace tin {
-namespace detail {
 
-class WorkerTeam {
+class ThreadTeam final : public detail::LoopRunner {
  public:
   /// Starts threads - 1 helpers; the calling thread is worker 0. A helper that cannot be started
   /// (resource limits) is not an error: the team is smaller.
-  explicit WorkerTeam(unsigned threads) {
+  explicit ThreadTeam(unsigned threads) {
     helpers_.reserve(threads > 1 ? threads - 1 : 0);
     for (unsigned w = 1; w < threads; ++w) {
       try {
@@ -36,7 +36,7 @@ class WorkerTeam {
       }
     }
   }
-  ~WorkerTeam() {
+  ~ThreadTeam() {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       stop_ = true;
@@ -44,15 +44,20 @@ class WorkerTeam {
     wake_.notify_all();
     for (std::thread& t : helpers_) t.join();
   }
-  WorkerTeam(const WorkerTeam&) = delete;
-  WorkerTeam& operator=(const WorkerTeam&) = delete;
+  ThreadTeam(const ThreadTeam&) = delete;
+  ThreadTeam& operator=(const ThreadTeam&) = delete;
 
   /// Workers in the team, the caller included.
   unsigned size() const { return static_cast<unsigned>(helpers_.size()) + 1; }
 
   /// Runs body(worker) once on every worker (the caller as worker 0) and returns when all have
-  /// finished; rethrows the first exception caught.
+  /// finished; rethrows the first exception caught. Called from the thread that made the team only.
   void everyWorker(const std::function<void(unsigned)>& body) {
+    struct Busy {  // a loop in `body` on this thread cannot use the team meanwhile (tryRun)
+      bool& flag;
+      explicit Busy(bool& f) : flag(f) { flag = true; }
+      ~Busy() { flag = false; }
+    } busy(busy_);
     std::exception_ptr error;
     {
       std::unique_lock<std::mutex> lock(mutex_);
@@ -81,10 +86,34 @@ class WorkerTeam {
   void forEach(std::size_t count, F&& fn) {
     if (count == 0) return;
     if (count == 1 || helpers_.empty()) return runEachInOrder(count, fn);
-    dw::detail::TaskClaims claims;
+    detail::TaskClaims claims;
     everyWorker([&](unsigned) { claims.drain(count, fn); });
     claims.rethrow();
   }
+
+  /// The loops' entry (detail::LoopRunner): body(w) for every w < workers, unless the team is too
+  /// small or already running a loop (a loop nested in one of its bodies starts threads as before).
+  bool tryRun(unsigned workers, const std::function<void(unsigned)>& body) override {
+    if (busy_ || workers > size()) return false;
+    everyWorker([&](unsigned w) {
+      if (w < workers) body(w);
+    });
+    return true;
+  }
+
+  /// While it lives, parallelFor and parallelForDynamic called on this thread run on the team.
+  class Scope {
+   public:
+    explicit Scope(ThreadTeam& team) : previous_(detail::loopRunnerOfThisThread()) {
+      detail::loopRunnerOfThisThread() = &team;
+    }
+    ~Scope() { detail::loopRunnerOfThisThread() = previous_; }
+    Scope(const Scope&) = delete;
+    Scope& operator=(const Scope&) = delete;
+
+   private:
+    detail::LoopRunner* previous_;
+  };
 
  private:
   void helperLoop(unsigned w) {
@@ -117,9 +146,8 @@ class WorkerTeam {
   std::size_t generation_ = 0;
   unsigned running_ = 0;
   bool stop_ = false;
+  bool busy_ = false;  // everyWorker is running (read and written by the owning thread only)
   std::exception_ptr error_;
 };
 
-}  // namespace detail
-}  // namespace tin
 }  // namespace dw
