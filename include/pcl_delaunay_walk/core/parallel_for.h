@@ -6,7 +6,8 @@
 ///   - parallelForDynamic: tasks handed out one at a time from a shared counter, for tasks of uneven
 ///     cost (strips, merges, chunks) whose results are written per task index.
 /// Both run the calling thread as worker 0 and rethrow the first exception once every worker has
-/// finished, so no worker outlives the call.
+/// finished, so no worker outlives the call. They start their threads on every call, unless a
+/// dw::ThreadTeam is in scope on the calling thread (thread_team.h): then its threads run them.
 #pragma once
 
 #include <algorithm>
