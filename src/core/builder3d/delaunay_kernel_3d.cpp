@@ -103,9 +103,9 @@ void DelaunayKernel3D::reserveSlots(std::size_t slots) {
   tet_v_.reserve(4 * slots);
   // A quarter more address space for the adjacency: its storage becomes the edge extraction's lists
   // (listByRange's donor), which hold each tetrahedron once per range of its three smallest ids, ~1.1
-  // to 1.15 times the tetrahedra. Without it the dragon's lists (8.2 per point) outgrew the 8 slots
-  // per point reserved and went into a new array, 14k pages to map afresh. Untouched pages cost
-  // address space only.
+  // to 1.15 times the tetrahedra (since session 20 the infinite ones too: one per hull facet, few). Without
+  // it the dragon's lists (8.2 per point) outgrew the 8 slots per point reserved and went into a new array,
+  // 14k pages to map afresh. Untouched pages cost address space only.
   tet_n_.reserve(4 * (slots + slots / 4));
   mark_.reserve(slots);
 }
