@@ -126,8 +126,9 @@ TEST(DelaunayKernel3D, SameGraphForAnyThreadCount) {
 TEST(DelaunayKernel3D, ReleasingExtractionGivesTheSameEdgesOnAnyThreadCount) {
   // releaseIntoEdgeChunks lists into the adjacency's storage when it is big enough and into a new
   // array when not (tiny inputs on many threads: most tetrahedra span several ranges and are listed
-  // up to three times), and on one thread writes one chunk reserved to Euler's bound. Each way must
-  // give edgeChunks()' edges, each once, by ascending smaller endpoint.
+  // up to three times), and writes one list: on one thread appended range by range, on several each
+  // range at the end of the one before, published while the ranges run at once. Each way must give
+  // edgeChunks()' edges, each once, in the same sequence (ascending smaller endpoint).
   for (std::size_t n : {std::size_t(5), std::size_t(9), std::size_t(40), std::size_t(300), std::size_t(5000)})
     for (unsigned t : {1u, 2u, 16u}) {
       const auto pts = b3d_test::mortonSorted(b3d_test::uniformCube(n, 50 + static_cast<unsigned>(n)));
@@ -136,6 +137,8 @@ TEST(DelaunayKernel3D, ReleasingExtractionGivesTheSameEdgesOnAnyThreadCount) {
       const auto order = dw::builder3d::brioOrder(pts);
       k.build(order.data(), order.size());
       const Edges expected = kernelEdges(k, 1);
+      Edges sequence;  // the per-range chunks of the same thread count, in order
+      for (const auto& c : k.edgeChunks(t)) sequence.insert(sequence.end(), c.begin(), c.end());
       const auto chunks = k.releaseIntoEdgeChunks(t);
       Edges got;
       for (const auto& c : chunks) got.insert(got.end(), c.begin(), c.end());
@@ -145,9 +148,8 @@ TEST(DelaunayKernel3D, ReleasingExtractionGivesTheSameEdgesOnAnyThreadCount) {
       const Edges unique = b3d_test::normalise(got);
       EXPECT_EQ(unique.size(), got.size()) << n << " points, " << t << " threads: an edge twice";
       EXPECT_EQ(unique, expected) << n << " points, " << t << " threads";
-      if (t == 1) {
-        EXPECT_EQ(chunks.size(), 1u) << n << " points";
-      }
+      EXPECT_EQ(got, sequence) << n << " points, " << t << " threads";
+      EXPECT_EQ(chunks.size(), 1u) << n << " points, " << t << " threads";
       EXPECT_FALSE(k.built());
     }
 }

@@ -3,9 +3,11 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <exception>
+#include <memory>
 #include <numeric>
 #include <string>
 #include <thread>
@@ -1456,26 +1458,60 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgesOfRanges(RangeLists&& in, un
   EdgeChunks chunks;
   const std::size_t num_ranges = in.num_ranges;
   if (num_ranges == 0) return chunks;
-  // 3. The edges of each range, into a chunk of its own sized exactly (a growing vector per thread
-  // held up to twice its edges while reallocating, on every thread at once: 2 threads peaked 20 %
-  // above the insertion at 1M points). Ranges are dealt out to the threads in turn; each range's list
-  // pages go back once they are bucketed, so the lists shrink as the edges grow.
-  // On one thread, given a bound on the edge count, the ranges (taken in order) go straight into one
-  // chunk reserved to the bound: joinChunks() then hands it over as it is, where the chunks were
-  // faulted in and then copied into a list faulted in again (1M points: 62 MB of edges; the bench's
-  // page faults fell from 252k to 222k).
+  // 3. The edges of each range. The ranges are claimed in order from one counter by the workers;
+  // each range's list pages go back once they are bucketed, so the lists shrink as the edges grow.
+  // Given a bound on the edge count, every range's edges go straight into one list, so that
+  // joinChunks() hands it over as it is:
+  //  - on one thread, appended range by range to the list reserved to the bound (the chunks had been
+  //    faulted in, then copied into a list faulted in again: 1M points, 62 MB of edges; the bench's
+  //    page faults fell from 252k to 222k);
+  //  - on several, the list is mapped on all workers and sized to the bound first, and a range's edges
+  //    are written at the end of the range before it, published through `end_of` as soon as each range
+  //    knows its count (before it writes). The range before was claimed earlier by a worker that is
+  //    running it, so the wait is short and cannot deadlock, even when the loop runs on fewer threads.
+  //    Per-range chunks then joined took 20 ms of a two-thread 1M-point build (session 20).
+  // Without a bound, each range goes into a chunk of its own sized exactly (a growing vector per
+  // thread held up to twice its edges while reallocating: 2 threads peaked 20 % above the insertion).
   const unsigned parts = static_cast<unsigned>(std::min<std::size_t>(num_threads, num_ranges));
-  const bool one_chunk = parts == 1 && edge_bound > 0;
-  chunks.assign(one_chunk ? 1 : num_ranges, {});
-  if (one_chunk) chunks[0].reserve(edge_bound);
-  auto work = [&](std::size_t part, std::size_t parts) {
+  const bool one_list = edge_bound > 0;
+  chunks.assign(one_list ? 1 : num_ranges, {});
+  std::vector<std::pair<index_t, index_t>>& list = chunks[0];
+  if (one_list) list.reserve(edge_bound);
+  constexpr std::size_t kNotYet = ~std::size_t(0), kFailed = kNotYet - 1;
+  std::unique_ptr<std::atomic<std::size_t>[]> end_of;
+  if (one_list && parts > 1) {
+    const std::size_t bytes = edge_bound * sizeof(list[0]), slices = detail::pageSlices(bytes, 4 * parts);
+    parallelFor(slices, parts, [&](std::size_t b, std::size_t e, unsigned) {
+      for (std::size_t k = b; k < e; ++k) detail::prefaultSlice(list.data(), bytes, k, slices);
+    });
+    list.resize(edge_bound);
+    end_of.reset(new std::atomic<std::size_t>[num_ranges]);
+    for (std::size_t r = 0; r < num_ranges; ++r) end_of[r].store(kNotYet, std::memory_order_relaxed);
+  }
+  // Where range r's edges begin in the one list: the end of range r - 1, once published.
+  auto startOf = [&](std::size_t r) {
+    if (r == 0) return std::size_t(0);
+    std::size_t at = end_of[r - 1].load(std::memory_order_acquire);
+    for (unsigned spins = 0; at == kNotYet; at = end_of[r - 1].load(std::memory_order_acquire))
+      if (++spins > 64) std::this_thread::yield();
+    return at;
+  };
+  std::atomic<std::size_t> next_range{0};
+  auto work = [&]() {
     std::vector<std::uint32_t> bucket_offset, fill;
     std::vector<index_t> bucket;
     // Repeats of b under one a are dropped through a small open-addressing set of entries
     // (a << 32) | b, in which an entry of another a reads as empty: its size follows a's occurrences,
     // not the point count, so threads need no per-point stamp array (4 bytes per point per thread).
     std::vector<std::uint64_t> seen;
-    for (std::size_t r = part; r < num_ranges; r += parts) {
+    for (std::size_t r = next_range++; r < num_ranges; r = next_range++) {
+      // A range that fails publishes kFailed, so that the ranges after it stop instead of waiting.
+      struct PublishFailure {
+        std::atomic<std::size_t>* slot;
+        ~PublishFailure() {
+          if (slot) slot->store(kFailed, std::memory_order_release);
+        }
+      } on_failure{end_of ? &end_of[r] : nullptr};
       const std::size_t lo = in.rangeStart(r), hi = in.rangeStart(r + 1);
       // Occurrences per a, then the bucket of each a. Each quadruple says which of its pairs it gives
       // and each pair's smaller endpoint (see RangeLists), and the only tests left are whether s0, s1,
@@ -1551,23 +1587,35 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgesOfRanges(RangeLists&& in, un
         }
         fill[a - lo] = static_cast<std::uint32_t>(distinct);
       }
-      if (one_chunk) {
-        auto& out = chunks[0];
+      if (one_list && !end_of) {
         std::size_t k = 0;
         for (std::size_t a = lo; a < hi; ++a)
-          for (; k < fill[a - lo]; ++k) out.emplace_back(static_cast<index_t>(a), bucket[k]);
+          for (; k < fill[a - lo]; ++k) list.emplace_back(static_cast<index_t>(a), bucket[k]);
         continue;
       }
-      auto& out = chunks[r];
-      out.resize(distinct);
+      std::pair<index_t, index_t>* out;
+      if (end_of) {
+        const std::size_t start = startOf(r);
+        if (start == kFailed) return;  // an earlier range failed: its error is passed on
+        if (start + distinct > edge_bound)
+          throw Error("dw::DelaunayKernel3D: more edges than Euler's bound (a corrupted triangulation)");
+        end_of[r].store(start + distinct, std::memory_order_release);
+        on_failure.slot = nullptr;
+        out = list.data() + start;
+      } else {
+        chunks[r].resize(distinct);
+        out = chunks[r].data();
+      }
       std::size_t k = 0;
       for (std::size_t a = lo; a < hi; ++a)
         for (; k < fill[a - lo]; ++k) out[k] = {static_cast<index_t>(a), bucket[k]};
     }
   };
-  parallelFor(parts, parts, [&](std::size_t b, std::size_t e, unsigned) {
-    for (std::size_t part = b; part < e; ++part) work(part, parts);
-  });
+  parallelFor(parts, parts, [&](std::size_t, std::size_t, unsigned) { work(); });
+  if (end_of) {
+    list.resize(end_of[num_ranges - 1].load(std::memory_order_relaxed));
+    detail::releaseUnused(list);
+  }
   return chunks;
 }
 

@@ -99,12 +99,15 @@ class DelaunayKernel3D {
 
   /// edgeChunks(), but frees the adjacency first and the tetrahedra once they are listed: the peak
   /// memory then holds the vertex quadruples and their lists, then the lists and the edges, never the
-  /// whole structure plus the edges. Leaves the kernel empty (built() is false).
+  /// whole structure plus the edges. The edges come as one chunk (each range written straight to its
+  /// place in it, on any number of threads), so joinChunks() hands it over without a copy. Leaves the
+  /// kernel empty (built() is false).
   EdgeChunks releaseIntoEdgeChunks(unsigned num_threads);
 
-  /// The chunks' edges in one list, in order, copied on `num_threads` threads; each chunk's pages go
-  /// back to the system once copied. On one thread the resident peak is one copy of the edges plus
-  /// one chunk; on several, two copies of the edges (still below the insertion's peak).
+  /// The chunks' edges in one list, in order: a single chunk is handed over as it is; several are
+  /// copied on `num_threads` threads, each chunk's pages going back to the system once copied. On one
+  /// thread the resident peak is one copy of the edges plus one chunk; on several, two copies of the
+  /// edges (still below the insertion's peak).
   static std::vector<std::pair<index_t, index_t>> joinChunks(EdgeChunks&& chunks, unsigned num_threads = 1);
 
   /// The edges (a, b), a < b, of the triangulation whose smaller endpoint a is in [first, last), each
@@ -260,7 +263,8 @@ class DelaunayKernel3D {
   static RangeLists listByRange(const SlotArray<index_t>& tet_v, std::size_t num_points, unsigned num_threads,
                                 std::size_t first, std::size_t last, SlotArray<index_t>* give_back = nullptr,
                                 SlotArray<index_t>* donor = nullptr);
-  // `edge_bound`, when not 0, bounds the edge count: on one thread the edges then go into one chunk.
+  // `edge_bound`, when not 0, bounds the edge count: the edges then go into one chunk, on any number
+  // of threads (each range written where the range before it ends).
   static EdgeChunks edgesOfRanges(RangeLists&& lists, unsigned num_threads, std::size_t edge_bound = 0);
   void initialTetrahedron(index_t a, index_t b, index_t c, index_t d);
   index_t locate(index_t v, index_t start);

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Run ON THE DEVICE MACHINE (16+ CPU cores, no PCL) from the repository root, with .deps carried (Qhull
+# for the core build, the dragon): builds the PCL-free 3D builder's scaling tool and measures the 3D
+# Delaunay graph builder's thread scaling (issue 8) on uniform points generated there and on the dragon,
+# plus the ceiling of any partitioned scheme (--independent). Logs go to $OUT (or ./out).
+#   usage: scripts/device_builder3d_scaling.sh [THREADS]     (default: 1,2,4,8,16)
+#   DW_SCALING_SIZES="1M 4M" (default), DW_SCALING_REPEATS=2 (default)
+set -uo pipefail
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+OUT=${OUT:-$ROOT/out}
+DEPS=$ROOT/.deps
+BUILD=${DW_DEVICE_BUILD:-/tmp/dw-build-3d}
+THREADS=${1:-1,2,4,8,16}
+REPEATS=${DW_SCALING_REPEATS:-2}
+mkdir -p "$OUT"
+{ lscpu | grep -E "Model name|^CPU\(s\)|Thread|Socket|NUMA node\(s\)|MHz|L2|L3"; free -g | head -2;
+  echo "THP: $(cat /sys/kernel/mm/transparent_hugepage/enabled)"; uptime; } | tee "$OUT/3d_machine.txt"
+
+cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDW_WITH_PCL=OFF -DDW_WITH_MPI=OFF \
+  -DDW_WITH_CUDA=OFF -DDW_BUILD_BENCHMARKS=OFF -DQhull_DIR="$DEPS/qhull/lib/cmake/Qhull" \
+  > "$OUT/3d_configure.log" 2>&1 || { tail -30 "$OUT/3d_configure.log"; exit 1; }
+cmake --build "$BUILD" --target dw_delaunay3d_scaling -j"$(nproc)" > "$OUT/3d_build.log" 2>&1 \
+  || { grep -E "error|FAILED" "$OUT/3d_build.log" | head -30; exit 1; }
+
+S="$BUILD/apps/dw_delaunay3d_scaling"
+rc=0
+for n in ${DW_SCALING_SIZES:-1M 4M}; do
+  echo "== uniform $n, threads $THREADS, best of $REPEATS, with the independent-kernel ceiling"
+  timeout 240 "$S" -n "$n" --threads "$THREADS" --repeats "$REPEATS" --independent 2>&1 \
+    | tee "$OUT/3d_scaling_$n.txt" || rc=1
+done
+D=$DEPS/data/models/dragon_vrip.ply
+[ -f "$D" ] || gunzip -k "$D.gz"
+echo "== dragon, threads $THREADS, best of $REPEATS"
+timeout 120 "$S" --file "$D" --threads "$THREADS" --repeats "$REPEATS" 2>&1 | tee "$OUT/3d_scaling_dragon.txt" || rc=1
+exit $rc
