@@ -5,6 +5,9 @@
 # plus the ceiling of any partitioned scheme (--independent). Logs go to $OUT (or ./out).
 #   usage: scripts/device_builder3d_scaling.sh [THREADS]     (default: 1,2,4,8,16)
 #   DW_SCALING_SIZES="1M 4M" (default), DW_SCALING_REPEATS=2 (default)
+#   DW_SCALING_BASE=DIR: instead, alternate this tree's tool with the one built from the source tree
+#   DIR (another commit, e.g. `git archive BASE | tar -x -C .deps/base` here, .deps carried), three
+#   rounds per input (DW_SCALING_ROUNDS), and print both tools' rows side by side.
 set -uo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 OUT=${OUT:-$ROOT/out}
@@ -23,14 +26,33 @@ cmake --build "$BUILD" --target dw_delaunay3d_scaling -j"$(nproc)" > "$OUT/3d_bu
   || { grep -E "error|FAILED" "$OUT/3d_build.log" | head -30; exit 1; }
 
 S="$BUILD/apps/dw_delaunay3d_scaling"
+D=$DEPS/data/models/dragon_vrip.ply
+[ -f "$D" ] || gunzip -k "$D.gz"
 rc=0
+if [ -n "${DW_SCALING_BASE:-}" ]; then
+  cmake -S "$DW_SCALING_BASE" -B "$BUILD-base" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDW_WITH_PCL=OFF \
+    -DDW_WITH_MPI=OFF -DDW_WITH_CUDA=OFF -DDW_BUILD_BENCHMARKS=OFF -DBUILD_TESTING=OFF \
+    -DQhull_DIR="$DEPS/qhull/lib/cmake/Qhull" > "$OUT/3d_configure_base.log" 2>&1 &&
+    cmake --build "$BUILD-base" --target dw_delaunay3d_scaling -j"$(nproc)" > "$OUT/3d_build_base.log" 2>&1 \
+    || { echo "base build failed"; tail -20 "$OUT/3d_build_base.log"; exit 1; }
+  B="$BUILD-base/apps/dw_delaunay3d_scaling"
+  for input in ${DW_SCALING_SIZES:-1M 4M} dragon; do
+    args=(-n "$input"); [ "$input" = dragon ] && args=(--file "$D")
+    for round in $(seq "${DW_SCALING_ROUNDS:-3}"); do
+      for tool in base new; do
+        t=$S; [ $tool = base ] && t=$B
+        timeout 120 "$t" "${args[@]}" --threads "$THREADS" --repeats "$REPEATS" 2>&1 \
+          | awk -v tag="$input $tool $round" '$1 ~ /^[0-9]+$/ {print tag, $0}' | tee -a "$OUT/3d_compare.txt"
+      done
+    done
+  done
+  exit 0
+fi
 for n in ${DW_SCALING_SIZES:-1M 4M}; do
   echo "== uniform $n, threads $THREADS, best of $REPEATS, with the independent-kernel ceiling"
   timeout 240 "$S" -n "$n" --threads "$THREADS" --repeats "$REPEATS" --independent 2>&1 \
     | tee "$OUT/3d_scaling_$n.txt" || rc=1
 done
-D=$DEPS/data/models/dragon_vrip.ply
-[ -f "$D" ] || gunzip -k "$D.gz"
 echo "== dragon, threads $THREADS, best of $REPEATS"
 timeout 120 "$S" --file "$D" --threads "$THREADS" --repeats "$REPEATS" 2>&1 | tee "$OUT/3d_scaling_dragon.txt" || rc=1
 exit $rc
