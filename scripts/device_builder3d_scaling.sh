@@ -16,25 +16,17 @@ BUILD=${DW_DEVICE_BUILD:-/tmp/dw-build-3d}
 THREADS=${1:-1,2,4,8,16}
 REPEATS=${DW_SCALING_REPEATS:-2}
 mkdir -p "$OUT"
-{ lscpu | grep -E "Model name|^CPU\(s\)|Thread|Socket|NUMA node\(s\)|MHz|L2|L3"; free -g | head -2;
-  echo "THP: $(cat /sys/kernel/mm/transparent_hugepage/enabled)"; uptime; } | tee "$OUT/3d_machine.txt"
-
-cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDW_WITH_PCL=OFF -DDW_WITH_MPI=OFF \
-  -DDW_WITH_CUDA=OFF -DDW_BUILD_BENCHMARKS=OFF -DQhull_DIR="$DEPS/qhull/lib/cmake/Qhull" \
-  > "$OUT/3d_configure.log" 2>&1 || { tail -30 "$OUT/3d_configure.log"; exit 1; }
-cmake --build "$BUILD" --target dw_delaunay3d_scaling -j"$(nproc)" > "$OUT/3d_build.log" 2>&1 \
-  || { grep -E "error|FAILED" "$OUT/3d_build.log" | head -30; exit 1; }
+. "$ROOT/scripts/device_cpu_build.sh"
+device_machine_info "$OUT/3d_machine.txt"
+device_cpu_build "$ROOT" "$BUILD" 3d dw_delaunay3d_scaling || exit 1
 
 S="$BUILD/apps/dw_delaunay3d_scaling"
 D=$DEPS/data/models/dragon_vrip.ply
 [ -f "$D" ] || gunzip -k "$D.gz"
 rc=0
 if [ -n "${DW_SCALING_BASE:-}" ]; then
-  cmake -S "$DW_SCALING_BASE" -B "$BUILD-base" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDW_WITH_PCL=OFF \
-    -DDW_WITH_MPI=OFF -DDW_WITH_CUDA=OFF -DDW_BUILD_BENCHMARKS=OFF -DBUILD_TESTING=OFF \
-    -DQhull_DIR="$DEPS/qhull/lib/cmake/Qhull" > "$OUT/3d_configure_base.log" 2>&1 &&
-    cmake --build "$BUILD-base" --target dw_delaunay3d_scaling -j"$(nproc)" > "$OUT/3d_build_base.log" 2>&1 \
-    || { echo "base build failed"; tail -20 "$OUT/3d_build_base.log"; exit 1; }
+  DW_DEVICE_CMAKE_ARGS=-DBUILD_TESTING=OFF device_cpu_build "$DW_SCALING_BASE" "$BUILD-base" 3d_base \
+    dw_delaunay3d_scaling || exit 1
   B="$BUILD-base/apps/dw_delaunay3d_scaling"
   for input in ${DW_SCALING_SIZES:-1M 4M} dragon; do
     args=(-n "$input"); [ "$input" = dragon ] && args=(--file "$D")

@@ -14,14 +14,9 @@ BUILD=${DW_DEVICE_BUILD:-/tmp/dw-build-tin}
 SIZES=("$@")
 [ ${#SIZES[@]} -gt 0 ] || SIZES=(2.1M 10M 21M)
 mkdir -p "$OUT"
-{ lscpu | grep -E "Model name|^CPU\(s\)|Thread|Socket|NUMA node\(s\)"; free -g | head -2;
-  echo "THP: $(cat /sys/kernel/mm/transparent_hugepage/enabled)"; uptime; } | tee "$OUT/tin_machine.txt"
-
-cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDW_WITH_PCL=OFF -DDW_WITH_MPI=OFF \
-  -DDW_WITH_CUDA=OFF -DDW_BUILD_BENCHMARKS=OFF -DQhull_DIR="$DEPS/qhull/lib/cmake/Qhull" \
-  > "$OUT/tin_configure.log" 2>&1 || { tail -30 "$OUT/tin_configure.log"; exit 1; }
-cmake --build "$BUILD" --target dw_tin_scaling test_tin -j"$(nproc)" > "$OUT/tin_build.log" 2>&1 \
-  || { grep -E "error|FAILED" "$OUT/tin_build.log" | head -30; exit 1; }
+. "$ROOT/scripts/device_cpu_build.sh"
+device_machine_info "$OUT/tin_machine.txt"
+device_cpu_build "$ROOT" "$BUILD" tin dw_tin_scaling test_tin || exit 1
 
 timeout 120 "$BUILD/test/test_tin" > "$OUT/test_tin.log" 2>&1
 echo "test_tin exit $? ($(grep -c '^\[       OK' "$OUT/test_tin.log") ok, $(grep -c '^\[  FAILED' "$OUT/test_tin.log") failed lines)"
