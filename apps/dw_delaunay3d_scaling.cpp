@@ -6,6 +6,9 @@
 /// times, how much the threads inserted, peak memory growth per point, and whether every thread count
 /// gave the same edge set (an order-free checksum). The last stage buildDelaunayGraph adds, the walk
 /// graph's records (assembleEdges), is timed on its own (assemble_s), outside total_s and B/point.
+/// setup_s sums each parallel pass's wall time before its threads insert (cuts, cells, to-do lists,
+/// slots, start walks); rest_s the calling thread's insertion of what a batch's passes left; handed
+/// the points per input point that a pass's slower threads left untried for the next pass.
 ///   dw_delaunay3d_scaling -n 1M [--threads 1,2,4,8,16] [--repeats R] [--validate] [--independent]
 ///   dw_delaunay3d_scaling --file cloud.{pcd,ply} [...]
 #include <algorithm>
@@ -51,9 +54,9 @@ double seconds(std::chrono::steady_clock::time_point a, std::chrono::steady_cloc
 }
 
 struct Run {
-  double order_s = 1e30, insert_s = 1e30, parallel_s = 0, busy_max = 0, busy_sum = 0, edges_s = 1e30,
-         total_s = 1e30, assemble_s = 1e30;
-  double shared = 0, deferred = 0, bytes_per_point = 0;
+  double order_s = 1e30, insert_s = 1e30, parallel_s = 0, busy_max = 0, busy_sum = 0, setup_s = 0, rest_s = 0,
+         edges_s = 1e30, total_s = 1e30, assemble_s = 1e30;
+  double shared = 0, deferred = 0, handed = 0, bytes_per_point = 0;
   double extraction_growth = 0;  // how far the edge extraction raised the insertion's peak (fraction)
   double walk = 0, tests = 0, created = 0;  // per point: walk steps, conflict tests, tetrahedra made
   std::uint64_t checksum = 0;
@@ -89,10 +92,13 @@ Run buildOnce(const std::vector<dw::Vec3f>& pts, unsigned threads, bool validate
   r.parallel_s = stats.parallel_seconds;
   r.busy_max = stats.parallel_busy_max;
   r.busy_sum = stats.parallel_busy_sum;
+  r.setup_s = stats.parallel_setup_seconds;
+  r.rest_s = stats.rest_seconds;
   r.edges_s = seconds(t3, t4);
   r.total_s = r.order_s + r.insert_s + r.edges_s;
   r.shared = double(stats.parallel_inserted) / pts.size();
   r.deferred = double(stats.deferred) / pts.size();
+  r.handed = double(stats.handed_on) / pts.size();
   r.walk = double(stats.walk_steps) / pts.size();
   r.tests = double(stats.conflict_tests) / pts.size();
   r.created = double(stats.created_tets) / pts.size();
@@ -193,8 +199,9 @@ int main(int argc, char** argv) {
     const std::vector<dw::Vec3f> pts = dw::mortonSortedDistinct(raw);
     std::printf("%zu distinct points (%s)\n", pts.size(), file.empty() ? "uniform cube" : file.c_str());
     std::printf(
-        "threads  total_s  speedup  order_s  insert_s  parallel_s  busy_max  busy_sum  shared  deferred  "
-        "edges_s  B/point  M pt/s  assemble_s  walk/pt  tests/pt  made/pt  checksum\n");
+        "threads  total_s  speedup  order_s  insert_s  parallel_s  busy_max  busy_sum  setup_s  rest_s  "
+        "shared  deferred  handed  edges_s  B/point  M pt/s  assemble_s  walk/pt  tests/pt  made/pt  "
+        "checksum\n");
     double first = 0;
     std::uint64_t checksum = 0;
     bool same = true;
@@ -213,12 +220,12 @@ int main(int argc, char** argv) {
       }
       same = same && best.checksum == checksum;
       std::printf(
-          "%7u  %7.3f  %6.2fx  %7.3f  %8.3f  %10.3f  %8.3f  %8.3f  %6.3f  %8.3f  %7.3f  %7.0f  %6.3f  "
-          "%10.3f  %7.2f  %8.2f  %7.2f  %016llx\n",
+          "%7u  %7.3f  %6.2fx  %7.3f  %8.3f  %10.3f  %8.3f  %8.3f  %7.3f  %6.3f  %6.3f  %8.3f  %6.3f  "
+          "%7.3f  %7.0f  %6.3f  %10.3f  %7.2f  %8.2f  %7.2f  %016llx\n",
           t, best.total_s, first / best.total_s, best.order_s, best.insert_s, best.parallel_s, best.busy_max,
-          best.busy_sum, best.shared, best.deferred, best.edges_s, best.bytes_per_point,
-          pts.size() / best.total_s / 1e6, best.assemble_s, best.walk, best.tests, best.created,
-          static_cast<unsigned long long>(best.checksum));
+          best.busy_sum, best.setup_s, best.rest_s, best.shared, best.deferred, best.handed, best.edges_s,
+          best.bytes_per_point, pts.size() / best.total_s / 1e6, best.assemble_s, best.walk, best.tests,
+          best.created, static_cast<unsigned long long>(best.checksum));
       std::fflush(stdout);
     }
     if (independent) {

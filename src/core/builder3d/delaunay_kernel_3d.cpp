@@ -261,6 +261,9 @@ void DelaunayKernel3D::Stats::add(const Stats& o) {
   parallel_seconds += o.parallel_seconds;
   parallel_busy_max += o.parallel_busy_max;
   parallel_busy_sum += o.parallel_busy_sum;
+  parallel_setup_seconds += o.parallel_setup_seconds;
+  handed_on += o.handed_on;
+  rest_seconds += o.rest_seconds;
 }
 
 // The sequential insertion owns everything: no ownership checks, plain memory accesses.
@@ -1033,12 +1036,14 @@ void DelaunayKernel3D::insertBatch(std::vector<index_t> pending, unsigned num_th
   const std::size_t by_size = std::max<std::size_t>(m / min_per_thread, m >= min_per_thread / 2 ? 2 : 1);
   constexpr unsigned kMaxCells = 256;  // a pass's cell ids are bytes
   unsigned threads = static_cast<unsigned>(std::min<std::size_t>({num_threads, by_size, kMaxCells}));
+  bool passes_ran = false;
   for (unsigned pass = 0; pass < kMaxPasses && threads > 1; ++pass) {
     if (pending.size() < threads * min_per_thread / 4)
       threads = static_cast<unsigned>(pending.size() * 4 / min_per_thread);
     if (threads < 2) break;
     const std::size_t before = pending.size();
     runParallelPass(pending, threads, pass);
+    passes_ran = true;
     // The pass threads' heaps (glibc keeps one per thread) hold their freed lists and scratch. Given
     // back after every pass, not once per batch: the dragon's last batch takes 9 passes at 16 threads,
     // and what they kept raised its peak by 3-4 B/pt.
@@ -1052,7 +1057,11 @@ void DelaunayKernel3D::insertBatch(std::vector<index_t> pending, unsigned num_th
   detail::releaseUnused(tet_n_);
   detail::releaseUnused(mark_);
   detail::sortAdaptive(pending);
+  const auto rest_start = std::chrono::steady_clock::now();
   for (index_t v : pending) insert(v);
+  if (passes_ran)
+    stats_.rest_seconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - rest_start).count();
 }
 
 void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned threads, unsigned pass) {
@@ -1145,25 +1154,43 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
     }
   });
 
+  stats_.parallel_setup_seconds +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  // The cells hold the same number of points, but the threads do not insert at the same speed (on the
+  // 16-core device, one pass's threads were busy 99-184 ms for nearly equal work, and which ones were
+  // slow changed from run to run). Once half of the threads that insert are through their lists, the
+  // others stop and hand what they have not tried on to the next pass, whose cells split it among all
+  // threads. A point handed on is only inserted later, so the triangulation is the same.
+  unsigned inserting = 0;
+  for (const Worker& w : workers) inserting += w.last_tet != kNoTet && !w.deferred.empty();
+  const unsigned hand_on_after = (inserting + 1) / 2;
+  std::atomic<unsigned> finished{0};
   // A worker that fails (a duplicate point) stops; the others finish, and the slots and counts of all
   // are merged before the error is passed on, so the triangulation stays valid and consistent.
   std::vector<std::exception_ptr> errors(threads);
   parallelFor(threads, threads, [&](std::size_t b, std::size_t e, unsigned) {
     for (std::size_t i = b; i < e; ++i) {
       Worker& w = workers[i];
-      if (w.last_tet == kNoTet) continue;
+      if (w.last_tet == kNoTet || w.deferred.empty()) continue;
       std::vector<index_t> todo;
       todo.swap(w.deferred);
       const auto busy_start = std::chrono::steady_clock::now();
+      std::size_t k = 0;
       try {
-        for (index_t v : todo)
-          if (!insertOnThisCpu(v, w, own[i])) {
-            w.deferred.push_back(v);
+        for (; k < todo.size(); ++k) {
+          if (k % 32 == 0 && finished.load(std::memory_order_relaxed) >= hand_on_after) break;
+          if (!insertOnThisCpu(todo[k], w, own[i])) {
+            w.deferred.push_back(todo[k]);
             ++w.stats.deferred;
           }
+        }
+        w.deferred.insert(w.deferred.end(), todo.begin() + k, todo.end());
+        w.stats.handed_on += todo.size() - k;
       } catch (...) {
         errors[i] = std::current_exception();
       }
+      finished.fetch_add(1, std::memory_order_relaxed);
       w.stats.parallel_busy_sum =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - busy_start).count();
       detail::freeScratch(todo);  // freed plainly, its pages stayed in this thread's heap

@@ -164,9 +164,12 @@ class DelaunayKernel3D {
     std::uint64_t deferred = 0;            ///< parallel attempts deferred (foreign tetrahedra reached)
     std::uint64_t parallel_passes = 0;     ///< passes of insertParallel that ran threads
     std::uint64_t parallel_inserted = 0;   ///< vertices inserted by threads (the rest: calling thread)
+    std::uint64_t handed_on = 0;           ///< points a pass's slower threads left untried for the next pass
     double parallel_seconds = 0.0;         ///< wall time inside parallel passes (set-up included)
     double parallel_busy_max = 0.0;        ///< per pass, the longest a thread inserted (summed over passes)
     double parallel_busy_sum = 0.0;        ///< thread-seconds spent inserting in parallel passes
+    double parallel_setup_seconds = 0.0;   ///< per pass, the wall time before its threads insert (summed)
+    double rest_seconds = 0.0;  ///< the calling thread inserting what a batch's parallel passes left
     void add(const Stats& o);
   };
   const Stats& stats() const { return stats_; }
