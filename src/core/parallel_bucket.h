@@ -7,6 +7,7 @@
 /// the same for every worker count, and each worker writes only where its own items go.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <type_traits>
 #include <vector>
@@ -23,9 +24,13 @@ template <class BucketOf, class Sized, class Place>
 void parallelBucket(std::size_t n, unsigned workers, unsigned buckets, BucketOf&& bucket_of, Sized&& sized,
                     Place&& place) {
   std::vector<std::size_t> at(std::size_t(workers) * buckets, 0);  // block w, bucket b: at[w * buckets + b]
+  // Each worker counts and places through its own copy of its row: with few buckets, the rows of
+  // several workers share a cache line, and incrementing them there made the workers take that line
+  // from each other at every item (two workers, two buckets: all four counters in one line).
   parallelFor(n, workers, [&](std::size_t begin, std::size_t end, unsigned w) {
-    std::size_t* count = &at[std::size_t(w) * buckets];
+    std::vector<std::size_t> count(buckets, 0);
     for (std::size_t k = begin; k < end; ++k) ++count[bucket_of(k)];
+    std::copy(count.begin(), count.end(), at.begin() + std::size_t(w) * buckets);
   });
   std::vector<std::size_t> sizes(buckets, 0);
   for (unsigned b = 0; b < buckets; ++b)
@@ -41,7 +46,8 @@ void parallelBucket(std::size_t n, unsigned workers, unsigned buckets, BucketOf&
     sized(all);
   }
   parallelFor(n, workers, [&](std::size_t begin, std::size_t end, unsigned w) {
-    std::size_t* next = &at[std::size_t(w) * buckets];
+    std::vector<std::size_t> next(at.begin() + std::size_t(w) * buckets,
+                                  at.begin() + std::size_t(w + 1) * buckets);
     for (std::size_t k = begin; k < end; ++k) {
       const unsigned b = bucket_of(k);
       place(k, b, next[b]++);
