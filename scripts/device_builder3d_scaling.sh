@@ -7,7 +7,8 @@
 #   DW_SCALING_SIZES="1M 4M" (default), DW_SCALING_REPEATS=2 (default)
 #   DW_SCALING_BASE=DIR: instead, alternate this tree's tool with the one built from the source tree
 #   DIR (another commit, e.g. `git archive BASE | tar -x -C .deps/base` here, .deps carried), three
-#   rounds per input (DW_SCALING_ROUNDS), and print both tools' rows side by side.
+#   rounds per input (DW_SCALING_ROUNDS; odd rounds run the base first, even ones this tree's), and
+#   print both tools' rows, tagged, into 3d_compare.txt.
 set -uo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 OUT=${OUT:-$ROOT/out}
@@ -31,7 +32,8 @@ if [ -n "${DW_SCALING_BASE:-}" ]; then
   for input in ${DW_SCALING_SIZES:-1M 4M} dragon; do
     args=(-n "$input"); [ "$input" = dragon ] && args=(--file "$D")
     for round in $(seq "${DW_SCALING_ROUNDS:-3}"); do
-      for tool in base new; do
+      tools="base new"; [ $((round % 2)) = 0 ] && tools="new base"  # ABBA: drift favours neither
+      for tool in $tools; do
         t=$S; [ $tool = base ] && t=$B
         timeout 120 "$t" "${args[@]}" --threads "$THREADS" --repeats "$REPEATS" 2>&1 \
           | awk -v tag="$input $tool $round" '$1 ~ /^[0-9]+$/ {print tag, $0}' | tee -a "$OUT/3d_compare.txt"
