@@ -1063,10 +1063,10 @@ void DelaunayKernel3D::insertBatch(std::vector<index_t> pending, unsigned num_th
   const std::size_t m = pending.size();
   detail::sortAdaptive(pending);
   // Small batches use fewer threads (min_points_per_thread_, see the header); two threads already
-  // share a batch of half that many points. When a pass stalls (under a quarter of its points went in),
-  // the rest goes in on this thread: what is left then is held up by cavities that cross cells whatever
-  // the cut (halving the threads instead inserted 1-3 % per pass at 16 threads, at four times the
-  // sequential cost per point).
+  // share a batch of half that many points. When a pass stalls (under a quarter of the points it tried
+  // went in), the rest goes in on this thread: what is left then is held up by cavities that cross
+  // cells whatever the cut (halving the threads instead inserted 1-3 % per pass at 16 threads, at four
+  // times the sequential cost per point).
   const std::size_t min_per_thread = std::max<std::size_t>(1, min_points_per_thread_);
   constexpr unsigned kMaxPasses = 12;
   const std::size_t by_size = std::max<std::size_t>(m / min_per_thread, m >= min_per_thread / 2 ? 2 : 1);
@@ -1077,14 +1077,16 @@ void DelaunayKernel3D::insertBatch(std::vector<index_t> pending, unsigned num_th
     if (pending.size() < threads * min_per_thread / 4)
       threads = static_cast<unsigned>(pending.size() * 4 / min_per_thread);
     if (threads < 2) break;
-    const std::size_t before = pending.size();
+    const std::size_t before = pending.size(), handed_before = stats_.handed_on;
     runParallelPass(pending, threads, pass);
     passes_ran = true;
+    const std::size_t handed = static_cast<std::size_t>(stats_.handed_on - handed_before);
     // The pass threads' heaps (glibc keeps one per thread) hold their freed lists and scratch. Given
     // back after every pass, not once per batch: the dragon's last batch takes 9 passes at 16 threads,
     // and what they kept raised its peak by 3-4 B/pt.
     releaseFreeHeap();
-    if (pending.size() * 4 > before * 3) break;
+    // Stalled: under a quarter of the points tried went in (those handed on were not tried).
+    if ((pending.size() - handed) * 4 > (before - handed) * 3) break;
   }
   // The passes' growth estimate is generous: the untaken tail of their last fresh range, prefaulted,
   // held 0.13 slots per point at 2-8 threads. Its pages go back to the system (later growth maps them
@@ -1196,8 +1198,10 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
   // The cells hold the same number of points, but the threads do not insert at the same speed (on the
   // 16-core device, one pass's threads were busy 99-184 ms for nearly equal work, and which ones were
   // slow changed from run to run). Once half of the threads that insert are through their lists, the
-  // others stop and hand what they have not tried on to the next pass, whose cells split it among all
-  // threads. A point handed on is only inserted later, so the triangulation is the same.
+  // others stop, if they are half through theirs, and hand what they have not tried on to the next
+  // pass, whose cells split it among all threads. A point handed on is only inserted later, so the
+  // triangulation is the same. (The half-through condition keeps cells that ties in the coordinates
+  // left uneven from handing on most of their points, pass after pass.)
   unsigned inserting = 0;
   for (const Worker& w : workers) inserting += w.last_tet != kNoTet && !w.deferred.empty();
   const unsigned hand_on_after = (inserting + 1) / 2;
@@ -1215,7 +1219,9 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
       std::size_t k = 0;
       try {
         for (; k < todo.size(); ++k) {
-          if (k % 32 == 0 && finished.load(std::memory_order_relaxed) >= hand_on_after) break;
+          if (k % 32 == 0 && 2 * k >= todo.size() &&
+              finished.load(std::memory_order_relaxed) >= hand_on_after)
+            break;
           if (!insertOnThisCpu(todo[k], w, own[i])) {
             w.deferred.push_back(todo[k]);
             ++w.stats.deferred;
