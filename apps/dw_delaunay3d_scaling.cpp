@@ -112,8 +112,7 @@ Run buildOnce(const std::vector<dw::Vec3f>& pts, unsigned threads, bool validate
   const auto t5 = std::chrono::steady_clock::now();
   dw::DelaunayGraph graph;
   graph.points = pts;
-  dw::assembleEdges(graph, dw::builder3d::DelaunayKernel3D::joinChunks(std::move(chunks), threads), true,
-                    threads);
+  dw::assembleEdges(graph, dw::builder3d::DelaunayKernel3D::joinChunks(std::move(chunks)), true, threads);
   r.assemble_s = seconds(t5, std::chrono::steady_clock::now());
   return r;
 }

@@ -1202,8 +1202,9 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
   // pass, whose cells split it among all threads. A point handed on is only inserted later, so the
   // triangulation is the same. (The half-through condition keeps cells that ties in the coordinates
   // left uneven from handing on most of their points, pass after pass.)
+  auto inserts = [](const Worker& w) { return w.last_tet != kNoTet && !w.deferred.empty(); };
   unsigned inserting = 0;
-  for (const Worker& w : workers) inserting += w.last_tet != kNoTet && !w.deferred.empty();
+  for (const Worker& w : workers) inserting += inserts(w);
   const unsigned hand_on_after = (inserting + 1) / 2;
   std::atomic<unsigned> finished{0};
   // A worker that fails (a duplicate point) stops; the others finish, and the slots and counts of all
@@ -1212,7 +1213,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
   parallelFor(threads, threads, [&](std::size_t b, std::size_t e, unsigned) {
     for (std::size_t i = b; i < e; ++i) {
       Worker& w = workers[i];
-      if (w.last_tet == kNoTet || w.deferred.empty()) continue;
+      if (!inserts(w)) continue;
       std::vector<index_t> todo;
       todo.swap(w.deferred);
       const auto busy_start = std::chrono::steady_clock::now();
@@ -1322,35 +1323,19 @@ std::vector<std::pair<index_t, index_t>> DelaunayKernel3D::edgesFrom(std::size_t
   return joinChunks(edgesOfRanges(listByRange(tet_v_, num_points_, 1, first, last), 1));
 }
 
-std::vector<std::pair<index_t, index_t>> DelaunayKernel3D::joinChunks(EdgeChunks&& chunks,
-                                                                      unsigned num_threads) {
+std::vector<std::pair<index_t, index_t>> DelaunayKernel3D::joinChunks(EdgeChunks&& chunks) {
   if (chunks.size() == 1) return std::move(chunks[0]);
-  std::vector<std::size_t> at(chunks.size() + 1, 0);
-  for (std::size_t c = 0; c < chunks.size(); ++c) at[c + 1] = at[c] + chunks[c].size();
-  const std::size_t total = at.back();
+  // Several chunks come only from extractions without an edge bound (edgesFrom, edgeChunks), whose
+  // callers join them on one thread: appended chunk by chunk, each freed once copied, so the peak
+  // holds the list and one chunk.
+  std::size_t total = 0;
+  for (const auto& c : chunks) total += c.size();
   std::vector<std::pair<index_t, index_t>> out;
   out.reserve(total);
-  const unsigned workers = workerCount(total, num_threads, std::size_t(1) << 18);
-  if (workers <= 1) {
-    // Appended chunk by chunk, each freed once copied: the peak holds the list and one chunk.
-    for (auto& c : chunks) {
-      out.insert(out.end(), c.begin(), c.end());
-      detail::freeScratch(c);
-    }
-    return out;
+  for (auto& c : chunks) {
+    out.insert(out.end(), c.begin(), c.end());
+    detail::freeScratch(c);
   }
-  // On several threads: the list's pages are mapped on all of them (resize would fault them in on
-  // this one), then each chunk is copied to its place and freed. The peak then holds the list and
-  // the chunks, 16 bytes per edge, still below the insertion's.
-  const std::size_t bytes = total * sizeof(out[0]), slices = detail::pageSlices(bytes, 4 * workers);
-  parallelFor(slices, workers, [&](std::size_t b, std::size_t e, unsigned) {
-    for (std::size_t k = b; k < e; ++k) detail::prefaultSlice(out.data(), bytes, k, slices);
-  });
-  out.resize(total);
-  parallelForDynamic(chunks.size(), workers, [&](std::size_t c) {
-    std::copy(chunks[c].begin(), chunks[c].end(), out.begin() + at[c]);
-    detail::freeScratch(chunks[c]);
-  });
   return out;
 }
 

@@ -47,7 +47,7 @@ EdgeList incrementalDelaunayEdges(const std::vector<Vec3f>& points, const BuildO
     }
     chunks = kernel.releaseIntoEdgeChunks(threads);
   }
-  return builder3d::DelaunayKernel3D::joinChunks(std::move(chunks), threads);
+  return builder3d::DelaunayKernel3D::joinChunks(std::move(chunks));
 }
 
 }  // namespace dw

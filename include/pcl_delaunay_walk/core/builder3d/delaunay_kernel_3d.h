@@ -104,11 +104,10 @@ class DelaunayKernel3D {
   /// kernel empty (built() is false).
   EdgeChunks releaseIntoEdgeChunks(unsigned num_threads);
 
-  /// The chunks' edges in one list, in order: a single chunk is handed over as it is; several are
-  /// copied on `num_threads` threads, each chunk's pages going back to the system once copied. On one
-  /// thread the resident peak is one copy of the edges plus one chunk; on several, two copies of the
-  /// edges (still below the insertion's peak).
-  static std::vector<std::pair<index_t, index_t>> joinChunks(EdgeChunks&& chunks, unsigned num_threads = 1);
+  /// The chunks' edges in one list, in order: a single chunk (releaseIntoEdgeChunks' on any thread
+  /// count) is handed over as it is; several are appended one by one, each chunk's pages going back to
+  /// the system once copied, so the resident peak is one copy of the edges plus one chunk.
+  static std::vector<std::pair<index_t, index_t>> joinChunks(EdgeChunks&& chunks);
 
   /// The edges (a, b), a < b, of the triangulation whose smaller endpoint a is in [first, last), each
   /// once: what one block of the parallel builder owns.
