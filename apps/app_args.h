@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/types.h"
+#include "pcl_delaunay_walk/core/graph/types.h"
 
 namespace dw_apps {
 

@@ -15,10 +15,10 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/file_header_check.h"
-#include "pcl_delaunay_walk/core/graph_builder.h"
-#include "pcl_delaunay_walk/core/graph_io.h"
-#include "pcl_delaunay_walk/core/point_file.h"
+#include "core/util/file_header_check.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
+#include "pcl_delaunay_walk/core/graph/graph_io.h"
+#include "pcl_delaunay_walk/core/util/point_file.h"
 
 namespace {
 

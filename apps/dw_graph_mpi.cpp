@@ -13,8 +13,9 @@
 #include <cstdlib>
 #include <string>
 
-#include "pcl_delaunay_walk/core/graph_io.h"
+#include "pcl_delaunay_walk/core/graph/graph_io.h"
 #include "pcl_delaunay_walk/mpi/distributed_graph.h"
+#include "mpi/fault_injection.h"
 #include "pcl_delaunay_walk/mpi/las_input_set.h"
 
 namespace {
@@ -73,7 +74,8 @@ int main(int argc, char** argv) {
       else if (a == "--quiet")
         quiet = true;
       else if (a == "--inject") {
-        opt.fault = dw::mpi::FaultInjection::parse(next());
+        opt.inject_fault = next();
+        dw::mpi::FaultInjection::parse(opt.inject_fault);  // refuses a bad spec before any rank starts
       } else if (a == "-h" || a == "--help") {
         if (rank == 0) usage();
         MPI_Finalize();
@@ -140,7 +142,7 @@ int main(int argc, char** argv) {
     if (!pieces.empty()) {
       dw::mpi::writeGraphPiecesAndManifest(MPI_COMM_WORLD, pieces, part, input.describe(), opt);
     } else {
-      opt.fault.check(part.rank, "write");
+      dw::mpi::checkFault(opt.inject_fault, part.rank, "write");
       const dw::DelaunayGraph g = dw::mpi::gatherGraph(MPI_COMM_WORLD, std::move(part));
       if (rank == 0) {
         dw::saveGraph(g, out);

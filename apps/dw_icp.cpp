@@ -29,8 +29,8 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/file_header_check.h"
-#include "pcl_delaunay_walk/core/point_file.h"
+#include "core/util/file_header_check.h"
+#include "pcl_delaunay_walk/core/util/point_file.h"
 #include "pcl_delaunay_walk/registration/icp_delaunay_walk.h"
 
 namespace {

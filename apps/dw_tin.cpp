@@ -13,9 +13,9 @@
 #include <string>
 #include <thread>
 
-#include "pcl_delaunay_walk/core/file_header_check.h"
+#include "core/util/file_header_check.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
-#include "pcl_delaunay_walk/core/process_memory.h"
+#include "core/util/process_memory.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/core/tin/ply_writer.h"

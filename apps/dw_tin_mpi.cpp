@@ -17,6 +17,7 @@
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/mpi/distributed_tin.h"
+#include "mpi/fault_injection.h"
 #include "pcl_delaunay_walk/mpi/las_input_set.h"
 
 namespace {
@@ -107,7 +108,8 @@ int main(int argc, char** argv) {
       else if (a == "--quiet")
         quiet = true;
       else if (a == "--inject") {
-        opt.fault = dw::mpi::FaultInjection::parse(next());
+        opt.inject_fault = next();
+        dw::mpi::FaultInjection::parse(opt.inject_fault);  // refuses a bad spec before any rank starts
       } else if (a == "-h" || a == "--help") {
         if (rank == 0) usage();
         MPI_Finalize();

@@ -23,12 +23,12 @@
 #include <thread>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/builder3d/block_parallel_builder.h"
-#include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
-#include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
-#include "pcl_delaunay_walk/core/graph_builder.h"
-#include "pcl_delaunay_walk/core/process_memory.h"
-#include "pcl_delaunay_walk/core/space_filling_curve.h"
+#include "core/builder3d/block_parallel_builder.h"
+#include "core/builder3d/delaunay_kernel_3d.h"
+#include "core/builder3d/insertion_order.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
+#include "core/util/process_memory.h"
+#include "core/util/space_filling_curve.h"
 
 #ifdef DW_HAVE_CGAL
 #include <CGAL/Delaunay_triangulation_3.h>

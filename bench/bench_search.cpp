@@ -9,7 +9,7 @@
 // 11k points, as in the seed. Thread counts of the NN runs: $DW_BENCH_THREADS (comma list, default 1,2;
 // e.g. 1,2,4,8,16 on a 16-core machine). Methods: $DW_BENCH_METHODS (comma list, default all; any name
 // dw_bench takes, e.g. walk-pnn-optimized-sorted-prefetch@qhull). The protocol runner with CSV output is
-// apps/dw_bench.
+// bench/dw_bench.
 #include <benchmark/benchmark.h>
 
 #include <cstdlib>

@@ -20,10 +20,10 @@
 #include <tuple>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
-#include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
-#include "pcl_delaunay_walk/core/dynamic_delaunay_graph.h"
-#include "pcl_delaunay_walk/core/graph_builder.h"
+#include "core/builder3d/delaunay_kernel_3d.h"
+#include "core/builder3d/insertion_order.h"
+#include "pcl_delaunay_walk/core/graph/dynamic_delaunay_graph.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/core/las/synthetic_lidar.h"
 
 #ifdef DW_HAVE_CGAL

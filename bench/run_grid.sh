@@ -16,7 +16,7 @@
 #                 frame on the 12 single-axis rotations, dragon-5k on the grid), all (main then extra),
 #                 or smoke (two tiny jobs, to test the driver)
 #     --methods   keep only these methods (comma list) in every job of the plan
-#     --jobs FILE run the job lines of FILE (e.g. from bench/grid_resume.py) after the plan's; with
+#     --jobs FILE run the job lines of FILE (e.g. from tools/device/grid_resume.py) after the plan's; with
 #                 --plan none, only those
 #     --dry-run   write OUT/jobs.txt and print it, run nothing
 #

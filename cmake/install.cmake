@@ -1,4 +1,6 @@
-# Installable CMake package: find_package(pcl_delaunay_walk) then link pcl_delaunay_walk::pcl_delaunay_walk.
+# Installable CMake package: find_package(pcl_delaunay_walk) then link pcl_delaunay_walk::pcl_delaunay_walk
+# (or ::core, ::mpi, ::gpu). Only the public headers of the targets that were built are installed;
+# private headers (src/) never are.
 include(CMakePackageConfigHelpers)
 
 set(DW_INSTALL_TARGETS pcl_delaunay_walk_core)
@@ -13,12 +15,28 @@ install(TARGETS ${DW_INSTALL_TARGETS} EXPORT pcl_delaunay_walkTargets
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR}
   INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
-install(DIRECTORY include/pcl_delaunay_walk DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
-if(EXISTS ${PROJECT_SOURCE_DIR}/gpu/include/pcl_delaunay_walk AND TARGET pcl_delaunay_walk_gpu)
-  install(DIRECTORY gpu/include/pcl_delaunay_walk DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+
+set(_dw_inc ${CMAKE_INSTALL_INCLUDEDIR}/pcl_delaunay_walk)
+install(DIRECTORY include/pcl_delaunay_walk/core DESTINATION ${_dw_inc})
+if(TARGET pcl_delaunay_walk)
+  foreach(area search registration surface io)
+    install(DIRECTORY include/pcl_delaunay_walk/${area} DESTINATION ${_dw_inc})
+  endforeach()
+endif()
+if(TARGET pcl_delaunay_walk_mpi)
+  install(DIRECTORY include/pcl_delaunay_walk/mpi DESTINATION ${_dw_inc})
+endif()
+if(TARGET pcl_delaunay_walk_gpu)
+  install(DIRECTORY gpu/include/pcl_delaunay_walk/gpu DESTINATION ${_dw_inc})
 endif()
 
 set(DW_CONFIG_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/pcl_delaunay_walk)
+# The config's find_dependency(Qhull) only where the core links it.
+if(TARGET Qhull::qhull_r)
+  set(DW_WITH_QHULL ON)
+else()
+  set(DW_WITH_QHULL OFF)
+endif()
 install(EXPORT pcl_delaunay_walkTargets NAMESPACE pcl_delaunay_walk:: DESTINATION ${DW_CONFIG_DIR})
 configure_package_config_file(cmake/pcl_delaunay_walkConfig.cmake.in
   ${CMAKE_CURRENT_BINARY_DIR}/pcl_delaunay_walkConfig.cmake INSTALL_DESTINATION ${DW_CONFIG_DIR})

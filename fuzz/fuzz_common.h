@@ -8,7 +8,7 @@
 #include <cstring>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/graph_io.h"
+#include "pcl_delaunay_walk/core/graph/graph_io.h"
 
 #define DW_FUZZ_CHECK(cond, msg)                                                           \
   do {                                                                                     \

@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "fuzz_common.h"
-#include "pcl_delaunay_walk/core/graph_io.h"
-#include "pcl_delaunay_walk/core/neighbour_search.h"
+#include "pcl_delaunay_walk/core/graph/graph_io.h"
+#include "pcl_delaunay_walk/core/search/neighbour_search.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;

@@ -8,8 +8,8 @@
 #                                       data set at base and half fidelity, every peer; bench/run_grid.sh
 #                                       on JOBS processes), thread scaling up to JOBS threads, the
 #                                       acceptance run: about 3 CPU-hours (1.5-2 hours on 2 idle cores;
-#                                       bench/device_run_grid.sh ran it on 15 cores in two 6-minute calls)
-#   scripts/benchmark.sh --quick -- ARGS  extra arguments go to dw_bench (see build-bench/apps/dw_bench --help)
+#                                       tools/device/run_grid.sh ran it on 15 cores in two 6-minute calls)
+#   scripts/benchmark.sh --quick -- ARGS  extra arguments go to dw_bench (see build-bench/bench/dw_bench --help)
 #
 # Environment: BUILD_DIR (default build-bench), OUT (default $BUILD_DIR/bench-results), JOBS (default 2:
 # build jobs, grid processes and the largest thread count), DW_DATA_DIR (the real data, default
@@ -57,20 +57,20 @@ fi
 if [ "$QUICK" = 1 ]; then
   rm -rf "$OUT/grid" "$OUT/scaling" "$OUT/accept"
   echo "== dw_bench (protocol runner, CSV into $OUT)"
-  "$BUILD_DIR/apps/dw_bench" "${DW_ARGS[@]}" --out "$OUT" "${EXTRA[@]}" | tee "$OUT/dw_bench.log"
+  "$BUILD_DIR/bench/dw_bench" "${DW_ARGS[@]}" --out "$OUT" "${EXTRA[@]}" | tee "$OUT/dw_bench.log"
 else
   rm -f "$OUT"/*.csv
   rm -rf "$OUT/grid"
   THREADS=1
   for t in 2 4 8 16 32 64; do [ "$t" -le "$JOBS" ] && THREADS=$THREADS,$t; done
   echo "== thread scaling ($THREADS threads) into $OUT/scaling"
-  "$BUILD_DIR/apps/dw_bench" --sections nn --datasets dragon-100k,lidar-69k --threads "$THREADS" --repeats 2 \
+  "$BUILD_DIR/bench/dw_bench" --sections nn --datasets dragon-100k,lidar-69k --threads "$THREADS" --repeats 2 \
     --methods pcl-kdtree,nanoflann,walk-kd-ann,walk-pnn,walk-pnn-optimized,walk-pnn-optimized-prefetch \
     --out "$OUT/scaling" | tee "$OUT/scaling.log"
   echo "== the rotation grid on $JOBS processes into $OUT/grid (bench/run_grid.sh)"
   bench/run_grid.sh --bin "$BUILD_DIR/apps" --out "$OUT/grid" --workers "$JOBS" --plan all
   echo "== acceptance on dragon-100k into $OUT/accept"
-  "$BUILD_DIR/apps/dw_bench" --sections accept --out "$OUT/accept" "${EXTRA[@]}" | tee "$OUT/accept.log"
+  "$BUILD_DIR/bench/dw_bench" --sections accept --out "$OUT/accept" "${EXTRA[@]}" | tee "$OUT/accept.log"
 fi
 
 echo "== Google Benchmark: NN search ($SEARCH_DATA)"

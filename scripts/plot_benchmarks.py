@@ -10,7 +10,7 @@ usage: plot_benchmarks.py RESULTS_DIR [--figures docs/figures]
 
 RESULTS_DIR holds dw_bench's CSV files, or folders of them (bench/run_grid.sh writes one folder per job:
 files of the same name are concatenated; where two rows measure the same thing, the one from the file
-that sorts last wins). A `scaling/` folder (bench/device_run_grid.sh: the thread scaling run, alone on
+that sorts last wins). A `scaling/` folder (tools/device/run_grid.sh: the thread scaling run, alone on
 the machine) feeds the thread-scaling table only. RESULTS_DIR/runs.txt may name, one per line in the
 order they were made, folders that each hold one whole run on one machine (e.g. two device calls):
 a table row then never mixes runs: each ICP row comes from the latest run with at least
@@ -523,7 +523,7 @@ def main():
     meta = {r["key"]: r["value"] for r in read_one(os.path.join(a.results, "meta.csv"))}
     machines = sorted(glob.glob(os.path.join(a.results, "**", "machine.txt"), recursive=True))
     machine = machines[-1] if machines else ""
-    if not meta and machine:  # bench/device_run_grid.sh: lscpu's record of the machine
+    if not meta and machine:  # tools/device/run_grid.sh: lscpu's record of the machine
         with open(machine) as f:
             info = dict(l.split(":", 1) for l in f if ":" in l)
         md.append(f"Machine: {info.get('Model name', '?').strip()}, {info.get('CPU(s)', '?').strip()} CPUs "

@@ -22,8 +22,8 @@
 # Bounded: every test has ctest's per-test timeout (SANITIZE_TEST_TIMEOUT, default 900 s) and each
 # whole ctest run is cut at SANITIZE_CTEST_BUDGET seconds (default 2400). JOBS (default 2) sets both
 # build and ctest parallelism. Extra ctest arguments: SANITIZE_CTEST_ARGS.
-# SANITIZE_TSAN_TARGETS overrides the TSan binaries (default: each of test_core test_robustness
-# test_robustness_pcl test_search test_registration test_tin test_builder3d that exists).
+# SANITIZE_TSAN_TARGETS overrides the TSan binaries (default: each test_core_* binary and
+# test_pcl_robustness, test_pcl_search, test_pcl_registration, those that exist).
 # ASAN_BUILD_DIR / TSAN_BUILD_DIR override the build dirs (default build-asan, build-tsan).
 # SANITIZE_SCOPE=core limits both runs to the PCL-free library and its tests (a quick local check).
 # Exit status 0 only if every selected test passed.
@@ -45,11 +45,14 @@ status=0
 # (the Release suite runs it).
 EXCLUDE='^install'
 
+TSAN_CORE_TARGETS="test_core_graph test_core_search test_core_geometry test_core_builder3d test_core_tin test_core_las test_core_util test_core_robustness"
+TSAN_PCL_TARGETS="test_pcl_robustness test_pcl_search test_pcl_registration"
+
 # Options named explicitly both ways: a build dir keeps cached options from an earlier scope.
 SCOPE_ARGS=(-DDW_WITH_PCL=ON -DDW_WITH_MPI=ON -DDW_BUILD_APPS=ON)
 if [ "${SANITIZE_SCOPE:-all}" = core ]; then
   SCOPE_ARGS=(-DDW_WITH_PCL=OFF -DDW_WITH_MPI=OFF -DDW_BUILD_APPS=OFF)
-  SANITIZE_TSAN_TARGETS=${SANITIZE_TSAN_TARGETS:-test_core test_robustness test_tin test_builder3d}
+  SANITIZE_TSAN_TARGETS=${SANITIZE_TSAN_TARGETS:-$TSAN_CORE_TARGETS}
 fi
 
 configure() {  # dir sanitizers multiversioning(ON|OFF)
@@ -79,7 +82,7 @@ for t in json.load(sys.stdin).get("tests", []):
 print("\n".join(sorted(names)))' | grep -Fxf <(printf '%s\n' "$available")
     # In a fresh build dir ctest cannot resolve a test's executable before it is built and leaves it
     # out of the JSON above, so the apps are also read from the generated test files themselves.
-    grep -rhoE '/apps/dw_[A-Za-z0-9_]+' "$dir" --include=CTestTestfile.cmake 2>/dev/null | sed 's|.*/||' |
+    grep -rhoE '/(apps|bench)/dw_[A-Za-z0-9_]+' "$dir" --include=CTestTestfile.cmake 2>/dev/null | sed 's|.*/||' |
       grep -Fxf <(printf '%s\n' "$available")
   } | sort -u
 }
@@ -134,7 +137,7 @@ run_tsan() {
   local targets=()
   local available
   available=$(cmake --build "$TSAN_DIR" --target help 2>/dev/null)
-  for t in ${SANITIZE_TSAN_TARGETS:-test_core test_robustness test_robustness_pcl test_search test_registration test_tin test_builder3d}; do
+  for t in ${SANITIZE_TSAN_TARGETS:-$TSAN_CORE_TARGETS $TSAN_PCL_TARGETS}; do
     grep -q "^$t:" <<<"$available" && targets+=("$t")
   done
   # gtest_discover_tests runs each binary at build time, so TSan's options must already apply there.
@@ -148,8 +151,8 @@ run_tsan() {
   # Not the tests that run PCL's OpenMP algorithms (NormalEstimationOMP): GCC's libgomp is not built
   # with TSan, so the barrier that ends every parallel region is invisible to it and it reports the
   # accesses that barrier orders (docs/robustness.md, "Why no OpenMP test under TSan"). The same query
-  # pattern runs on std::thread in the tests above (search.DelaunayWalkApi.ConcurrentQueriesAreExact,
-  # robustness_pcl.PclConcurrency.*); ASan and the Release suite still run the OpenMP tests.
+  # pattern runs on std::thread in the tests above (pcl.search.DelaunayWalkApi.ConcurrentQueriesAreExact,
+  # pcl.robustness.PclConcurrency.*); ASan and the Release suite still run the OpenMP tests.
   timeout "$BUDGET" ctest --test-dir "$TSAN_DIR" --output-on-failure -j "$JOBS" --timeout "$TEST_TIMEOUT" \
       -R "$regex" -E "$EXCLUDE|NormalEstimationOmp" ${SANITIZE_CTEST_ARGS:-}
   local rc=$?

@@ -24,8 +24,8 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/file_header_check.h"
-#include "pcl_delaunay_walk/core/types.h"
+#include "core/util/file_header_check.h"
+#include "pcl_delaunay_walk/core/graph/types.h"
 #include "pcl_delaunay_walk/io/las_io.h"
 
 namespace dw_viewer {

@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/parallel_for.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
 #include "pcl_delaunay_walk/search/delaunay_walk.h"
 
 namespace dw_viewer {
@@ -154,7 +154,7 @@ class IcpStepper {
   const Eigen::Matrix4f& finalTransformation() const { return final_; }
   const SearchStats& stats() const { return stats_; }
   const WalkSearch& targetSearch() const { return *walk_; }
-  const dw::DelaunayGraph& graph() const { return walk_->getWalkQuery()->graph(); }
+  const dw::DelaunayGraph& graph() const { return walk_->getCallerMetricSearch()->graph(); }
   double graphBuildSeconds() const { return walk_->getLastBuildSeconds(); }
 
  private:
@@ -170,10 +170,10 @@ class IcpStepper {
 
   /// Nearest target point of every source point at the current pose; PNN hints for the next search.
   void search() {
-    const auto& query = *walk_->getWalkQuery();
+    const auto& query = *walk_->getCallerMetricSearch();
     const std::size_t n = current_->size();
     const double max_sqr = settings_.max_correspondence_distance * settings_.max_correspondence_distance;
-    std::vector<pcl::search::detail::WalkNeighbour> nn(n);
+    std::vector<dw::WalkNeighbour> nn(n);
     std::vector<char> found(n, 0);
     walk_lengths_.assign(n, 0);
     std::vector<char> widened(n, 0);
@@ -184,7 +184,7 @@ class IcpStepper {
       for (std::size_t i = b; i < e; ++i) {
         const auto& p = (*current_)[i];
         const float q[3] = {p.x, p.y, p.z};
-        pcl::search::detail::WalkQueryStats qs;
+        dw::CallerMetricSearchStats qs;
         found[i] = query.nearest(q, settings_.start, hints_[i], nn[i], &qs);
         walk_lengths_[i] = qs.walk_steps;
         widened[i] = qs.widened;

@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/graph_builder.h"
-#include "pcl_delaunay_walk/core/start_strategy.h"
-#include "pcl_delaunay_walk/core/types.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
+#include "pcl_delaunay_walk/core/search/start_strategy.h"
+#include "pcl_delaunay_walk/core/graph/types.h"
 
 namespace dw_viewer {
 

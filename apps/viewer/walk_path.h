@@ -5,7 +5,7 @@
 
 #include <vector>
 
-#include "pcl_delaunay_walk/core/walk.h"
+#include "pcl_delaunay_walk/core/search/walk.h"
 
 namespace dw_viewer {
 

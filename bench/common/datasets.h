@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/point_file.h"
-#include "pcl_delaunay_walk/core/types.h"
+#include "pcl_delaunay_walk/core/util/point_file.h"
+#include "pcl_delaunay_walk/core/graph/types.h"
 
 namespace dwb {
 
@@ -54,7 +54,7 @@ inline std::string findDataFile(const std::string& subdir, const std::string& fi
 #ifdef DW_TEST_DATA_DIR
   cands.push_back(std::string(DW_TEST_DATA_DIR) + "/" + file);
 #endif
-  // Targets without those definitions (apps/dw_bench): the checkout this header lives in.
+  // Targets without those definitions (bench/dw_bench): the checkout this header lives in.
   std::string root = __FILE__;
   for (int up = 0; up < 3; ++up)
     root = root.substr(0, root.find_last_of('/') == std::string::npos ? 0 : root.find_last_of('/'));
@@ -63,7 +63,7 @@ inline std::string findDataFile(const std::string& subdir, const std::string& fi
     cands.push_back(root + "/data/" + file);
   }
   // __FILE__ is relative when ccache's base_dir rewrote the compile line; the build folder usually
-  // sits in the checkout (<repo>/build-x/apps/dw_bench), so look beside the running executable too.
+  // sits in the checkout (<repo>/build-x/bench/dw_bench), so look beside the running executable too.
   char exe_buf[4096];
   const ssize_t exe_len = ::readlink("/proc/self/exe", exe_buf, sizeof exe_buf - 1);
   if (exe_len > 0) {
@@ -84,7 +84,7 @@ inline std::string findDataFile(const std::string& subdir, const std::string& fi
 }
 
 /// Where unpacked data goes: $DW_BENCH_CACHE, else <build dir>/bench-data (the build dir is the parent
-/// of the running executable's folder: build/apps/dw_bench, build/bench/bench_search).
+/// of the running executable's folder: build/bench/dw_bench, build/bench/bench_search).
 inline std::string cacheDir() {
   std::string dir;
   if (const char* env = std::getenv("DW_BENCH_CACHE")) {

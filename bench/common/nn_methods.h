@@ -28,10 +28,10 @@ static_assert(NANOFLANN_VERSION >= 0x140,
 #endif
 
 #include "datasets.h"
-#include "pcl_delaunay_walk/core/graph_builder.h"
-#include "pcl_delaunay_walk/core/neighbour_search.h"
-#include "pcl_delaunay_walk/core/query_order.h"
-#include "pcl_delaunay_walk/core/space_filling_curve.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
+#include "pcl_delaunay_walk/core/search/neighbour_search.h"
+#include "pcl_delaunay_walk/core/search/query_order.h"
+#include "core/util/space_filling_curve.h"
 #include "worker_pool.h"
 
 namespace dwb {

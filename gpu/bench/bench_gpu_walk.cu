@@ -15,9 +15,9 @@
 #include <thread>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/graph_builder.h"
-#include "pcl_delaunay_walk/core/point_file.h"
-#include "pcl_delaunay_walk/core/walk.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
+#include "pcl_delaunay_walk/core/util/point_file.h"
+#include "pcl_delaunay_walk/core/search/walk.h"
 #include "pcl_delaunay_walk/gpu/delaunay_walk.h"
 #include "pcl_delaunay_walk/gpu/iterative_closest_point.h"
 

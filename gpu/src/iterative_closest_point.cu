@@ -4,7 +4,7 @@
 #include <numeric>
 #include <string>
 
-#include "pcl_delaunay_walk/core/space_filling_curve.h"
+#include "core/util/space_filling_curve.h"
 #include "pcl_delaunay_walk/gpu/iterative_closest_point.h"
 #include "pcl_delaunay_walk/gpu/rigid_transform.h"
 #include "walk_device.cuh"

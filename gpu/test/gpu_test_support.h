@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/point_file.h"
-#include "pcl_delaunay_walk/core/types.h"
+#include "pcl_delaunay_walk/core/util/point_file.h"
+#include "pcl_delaunay_walk/core/graph/types.h"
 #include "pcl_delaunay_walk/gpu/cuda_check.h"
 
 namespace dwgpu_test {
@@ -24,7 +24,7 @@ namespace dwgpu_test {
 #define DW_REQUIRE_CUDA_DEVICE()                                                                     \
   do {                                                                                               \
     if (pcl::gpu::cudaDeviceCount() == 0)                                                            \
-      GTEST_SKIP() << "no CUDA device: GPU tests run on a machine with one (scripts/device_run.sh)"; \
+      GTEST_SKIP() << "no CUDA device: GPU tests run on a machine with one (tools/device/run.sh)"; \
   } while (0)
 
 inline bool fileExists(const std::string& p) {

@@ -9,7 +9,7 @@
 #include <memory>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/neighbour_search.h"
+#include "pcl_delaunay_walk/core/search/neighbour_search.h"
 #include "pcl_delaunay_walk/gpu/iterative_closest_point.h"
 
 namespace dwgpu_test {

@@ -8,7 +8,7 @@
 #include <memory>
 
 #include "gpu_test_support.h"
-#include "pcl_delaunay_walk/core/graph_builder.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "reference_icp.h"
 
 namespace {

@@ -9,7 +9,7 @@
 #include <random>
 
 #include "gpu_test_support.h"
-#include "pcl_delaunay_walk/core/graph_builder.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/gpu/delaunay_walk.h"
 
 namespace {

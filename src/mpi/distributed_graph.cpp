@@ -3,6 +3,7 @@
 /// process input preparation replayed on the distributed points, then one certified block per rank
 /// whose halo cells are fetched from their owners round by round (distributed_graph.h, docs/mpi.md).
 #include "pcl_delaunay_walk/mpi/distributed_graph.h"
+#include "mpi/fault_injection.h"
 
 #include <sys/mman.h>
 
@@ -16,11 +17,11 @@
 #include <numeric>
 #include <unordered_map>
 
-#include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
-#include "pcl_delaunay_walk/core/builder3d/rounded_circumsphere.h"
-#include "pcl_delaunay_walk/core/predicates_3d.h"
-#include "pcl_delaunay_walk/core/space_filling_curve.h"
-#include "pcl_delaunay_walk/core/vec3d.h"
+#include "core/builder3d/delaunay_kernel_3d.h"
+#include "core/geometry/rounded_circumsphere.h"
+#include "pcl_delaunay_walk/core/geometry/predicates_3d.h"
+#include "core/util/space_filling_curve.h"
+#include "core/geometry/vec3d.h"
 
 namespace dw {
 namespace mpi {
@@ -742,7 +743,7 @@ RankGraph buildGraphDistributed(MPI_Comm comm, const PointInputSet& input, const
   const std::vector<double> xyz = input.read(in_first, in_last);
   if (xyz.size() != 3 * (in_last - in_first)) throw Error(input.describe() + ": short read");
   g.timings.read_s = since(t0);
-  o.fault.check(g.rank, "read");
+  checkFault(o.inject_fault, g.rank, "read");
   progress("read " + std::to_string(n_in) + " points on " + std::to_string(P) + " ranks");
 
   // 2. The single-process preparation (graph_builder.cpp), replayed: bounding box of the finite points,
@@ -845,7 +846,7 @@ RankGraph buildGraphDistributed(MPI_Comm comm, const PointInputSet& input, const
   g.first_vertex = static_cast<index_t>(base);
   g.vertices = nv;
   g.timings.sort_s = since(t0);
-  o.fault.check(g.rank, "sort");
+  checkFault(o.inject_fault, g.rank, "sort");
   progress("sorted " + std::to_string(nv) + " distinct points along the Morton curve");
 
   // 4. Degenerate or tiny inputs take the single-process path on rank 0 (they are small or flat, and
@@ -912,7 +913,7 @@ RankGraph buildGraphDistributed(MPI_Comm comm, const PointInputSet& input, const
                   static_cast<index_t>(base + g.points.size()));
   block.triangulate();
   g.timings.block_s = since(t0);
-  o.fault.check(g.rank, "block");
+  checkFault(o.inject_fault, g.rank, "block");
   progress("blocks triangulated (own cells plus one ring)");
 
   // 7. The global hull: its boundary points are on some block's local hull; rank 0 triangulates the
@@ -960,7 +961,7 @@ RankGraph buildGraphDistributed(MPI_Comm comm, const PointInputSet& input, const
 
   // 8. Certify: grow halos (fetching cells) until every tetrahedron around the own vertices is global.
   t0 = std::chrono::steady_clock::now();
-  o.fault.check(g.rank, "grow");
+  checkFault(o.inject_fault, g.rank, "grow");
   // One rank holds every point: its triangulation is the global one, nothing to certify.
   if (P > 1) block.certify(hull_ids);
   g.edges = block.edges();

@@ -2,6 +2,7 @@
 /// \brief The MPI driver: range read of one LAS file or a pre-split set, sampled slab splitters, all-to-all
 /// redistribution, leaf triangulation, and the pairwise merge tree over ranks.
 #include "pcl_delaunay_walk/mpi/distributed_tin.h"
+#include "mpi/fault_injection.h"
 
 #include <algorithm>
 #include <chrono>
@@ -110,7 +111,7 @@ RankTin triangulateDistributed(MPI_Comm comm, const DistributedTinOptions& optio
   for (std::size_t i = 0; i < mine.size(); ++i) mine[i].gid = base + i;
   t.timings.read_s = since(t0);
   progress("read " + std::to_string(total) + " points on " + std::to_string(P) + " ranks");
-  options.fault.check(t.rank, "read");
+  checkFault(options.inject_fault, t.rank, "read");
 
   // 2. Long axis and equal-count splitters from a gathered sample.
   t0 = std::chrono::steady_clock::now();
@@ -197,12 +198,12 @@ RankTin triangulateDistributed(MPI_Comm comm, const DistributedTinOptions& optio
     group.hi = split[me + 1];
   }
   t.timings.leaf_s = since(t0);
-  options.fault.check(t.rank, "leaf");
+  checkFault(options.inject_fault, t.rank, "leaf");
   progress("leaves done");
 
   // 5. Merge tree: at step s, rank r (r % 2s == 0) takes the group of rank r + s.
   t0 = std::chrono::steady_clock::now();
-  options.fault.check(t.rank, "merge");  // every rank passes here, senders and receivers alike
+  checkFault(options.inject_fault, t.rank, "merge");  // every rank passes here, senders and receivers alike
   for (int step = 1; step < P; step *= 2) {
     if (me % (2 * step) == step) {
       sendGroup(comm, me - step, group);

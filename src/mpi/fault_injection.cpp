@@ -1,9 +1,9 @@
-#include "pcl_delaunay_walk/mpi/fault_injection.h"
+#include "fault_injection.h"
 
 #include <csignal>
 #include <stdexcept>
 
-#include "pcl_delaunay_walk/core/types.h"
+#include "pcl_delaunay_walk/core/graph/types.h"
 
 namespace dw {
 namespace mpi {
@@ -24,6 +24,10 @@ void FaultInjection::check(int my_rank, const char* at_stage) const {
   if (rank != my_rank || stage != at_stage) return;
   if (kill) std::raise(SIGKILL);
   throw Error("injected failure on rank " + std::to_string(my_rank) + " at stage '" + at_stage + "'");
+}
+
+void checkFault(const std::string& spec, int my_rank, const char* at_stage) {
+  if (!spec.empty()) FaultInjection::parse(spec).check(my_rank, at_stage);
 }
 
 }  // namespace mpi

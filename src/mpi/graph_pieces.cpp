@@ -8,6 +8,7 @@
 
 #include "manifest_file.h"
 #include "pcl_delaunay_walk/mpi/distributed_graph.h"
+#include "mpi/fault_injection.h"
 
 namespace dw {
 namespace mpi {
@@ -88,7 +89,7 @@ void writeGraphPiecesAndManifest(MPI_Comm comm, const std::string& prefix, const
   const std::string manifest = prefix + ".manifest.json";
   const std::size_t slash = prefix.find_last_of('/');
   const std::string base = slash == std::string::npos ? prefix : prefix.substr(slash + 1);
-  o.fault.check(part.rank, "write");
+  checkFault(o.inject_fault, part.rank, "write");
   const std::uint64_t bytes = writeGraphPiece(prefix + ".rank" + std::to_string(part.rank) + ".dwgp", part);
   std::uint64_t mine[3] = {bytes, part.gathered_fallback ? 0 : part.points.size(),
                            part.gathered_fallback ? 0 : part.edges.size()};

@@ -9,6 +9,7 @@
 #include "manifest_file.h"
 #include "pcl_delaunay_walk/core/tin/ply_writer.h"
 #include "pcl_delaunay_walk/mpi/distributed_tin.h"
+#include "mpi/fault_injection.h"
 
 namespace dw {
 namespace mpi {
@@ -103,7 +104,7 @@ void writePiecesAndManifest(MPI_Comm comm, const std::string& prefix, const Rank
   const std::string piece = prefix + ".rank" + std::to_string(t.rank) + ".ply";
   const std::string piece_name =
       piece.substr(piece.find_last_of('/') == std::string::npos ? 0 : piece.find_last_of('/') + 1);
-  options.fault.check(t.rank, "write");
+  checkFault(options.inject_fault, t.rank, "write");
   const std::uint64_t mine[2] = {writePiece(piece, t), t.emitted.triangles.size() / 3};
   // The gather is also the barrier: no rank reaches it before its piece is closed.
   std::vector<std::uint64_t> all(2 * static_cast<std::size_t>(t.size));
@@ -144,7 +145,7 @@ std::vector<index_t> gatherTriangles(MPI_Comm comm, const RankTin& t) {
 
 void writeGathered(MPI_Comm comm, const std::string& path, const RankTin& t,
                    const DistributedTinOptions& options) {
-  options.fault.check(t.rank, "write");
+  checkFault(options.inject_fault, t.rank, "write");
   const std::vector<index_t> tris = gatherTriangles(comm, t);
   // Every rank's used vertices, as (gid, x, y, z) records.
   struct V {

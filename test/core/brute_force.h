@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/graph_builder.h"
-#include "pcl_delaunay_walk/core/neighbour_search.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
+#include "pcl_delaunay_walk/core/search/neighbour_search.h"
 
 namespace dw_test {
 

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/graph_io.h"
-#include "pcl_delaunay_walk/core/point_file.h"
+#include "pcl_delaunay_walk/core/graph/graph_io.h"
+#include "pcl_delaunay_walk/core/util/point_file.h"
 #include "pcl_delaunay_walk/mpi/distributed_graph.h"
 #include "pcl_delaunay_walk/mpi/point_input_set.h"
 

@@ -1,7 +1,7 @@
 // The GPU ICP against the CPU pcl::IterativeClosestPointDelaunayWalk (stock PCL ICP with the walk),
 // in one process, on the bunny scans, the dragon and the LiDAR frame pair: the bar is the same
 // final transform element-wise within 1e-4. Compiled only where PCL exists; the GPU half runs where a
-// CUDA device exists too (the device machine, through scripts/device_bundle.sh). Without a device the
+// CUDA device exists too (the device machine, through tools/device/bundle.sh). Without a device the
 // PCL half still checks the host reference (gpu/test/reference_icp.h, which the GPU loop equals to
 // ~1e-5) against PCL, so the semantics are tested in CI as well.
 #include <gtest/gtest.h>
@@ -14,7 +14,7 @@
 
 #include "../gpu_test_support.h"
 #include "../reference_icp.h"
-#include "pcl_delaunay_walk/core/graph_builder.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/gpu/pcl_adapters.h"
 #include "pcl_delaunay_walk/registration/icp_delaunay_walk.h"
 

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <limits>
 
-#include "pcl_delaunay_walk/core/graph_builder.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/gpu/pcl_adapters.h"
 
 namespace {

@@ -15,9 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/delaunay_graph.h"
-#include "pcl_delaunay_walk/core/graph_builder.h"
-#include "pcl_delaunay_walk/mpi/fault_injection.h"
+#include "pcl_delaunay_walk/core/graph/delaunay_graph.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/mpi/point_input_set.h"
 
 namespace dw {
@@ -31,8 +30,9 @@ struct DistributedGraphOptions {
   /// dragon, whose surface leaves most small cells empty) but a thicker first ring. Only speed depends
   /// on it, never the graph.
   int cell_shift = 1;
-  /// Testing hook: fail or die on one rank at one stage ("read", "sort", "block", "grow", "write").
-  FaultInjection fault;
+  /// Testing hook: fail or die on one rank at one stage ("read", "sort", "block", "grow", "write"): "fail:STAGE:RANK" or
+  /// "kill:STAGE:RANK" (the apps' --inject); empty: none.
+  std::string inject_fault;
 };
 
 struct GraphRankTimings {

@@ -13,7 +13,6 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/mpi/fault_injection.h"
 #include "pcl_delaunay_walk/mpi/las_input_set.h"
 #include "pcl_delaunay_walk/mpi/slab_group.h"
 
@@ -29,8 +28,9 @@ struct DistributedTinOptions {
   std::uint64_t max_records = 0;  ///< use only the first max_records records (0: all); for weak scaling
   /// Progress lines (called on rank 0 only).
   std::function<void(const std::string&)> progress;
-  /// Testing hook: fail or die on one rank at one stage ("read", "leaf", "merge", "write").
-  FaultInjection fault;
+  /// Testing hook: fail or die on one rank at one stage ("read", "leaf", "merge", "write"): "fail:STAGE:RANK" or
+  /// "kill:STAGE:RANK" (the apps' --inject); empty: none.
+  std::string inject_fault;
 };
 
 struct RankTimings {

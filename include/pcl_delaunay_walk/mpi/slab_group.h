@@ -16,7 +16,7 @@
 #include <limits>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/types.h"
+#include "pcl_delaunay_walk/core/graph/types.h"
 
 namespace dw {
 namespace mpi {

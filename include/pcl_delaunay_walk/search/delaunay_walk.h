@@ -10,9 +10,9 @@
 #include <cstdint>
 #include <string>
 
-#include "pcl_delaunay_walk/core/graph_builder.h"
-#include "pcl_delaunay_walk/core/start_strategy.h"
-#include "pcl_delaunay_walk/search/walk_query.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
+#include "pcl_delaunay_walk/core/search/start_strategy.h"
+#include "pcl_delaunay_walk/core/search/caller_metric_search.h"
 
 namespace pcl {
 namespace search {
@@ -94,7 +94,7 @@ class DelaunayWalk : public Search<PointT> {
   dw::DelaunayGraph::ConstPtr getGraph() const;
 
   /** \brief The exact query engine over the current graph (null before setInputCloud). */
-  detail::WalkQuery::ConstPtr getWalkQuery() const { return query_; }
+  dw::CallerMetricSearch::ConstPtr getCallerMetricSearch() const { return query_; }
 
   /** \brief Set where walks start: Zero, KdAnn (default), Pnn or PnnOptimized. With Pnn the hint is
    * the previous query's nearest vertex on the same thread (good for coherent query sequences); the
@@ -197,9 +197,9 @@ class DelaunayWalk : public Search<PointT> {
   /** \brief Strategy and hint for a point query (the thread's previous answer for Pnn). */
   dw::index_t sequenceHint() const;
   void rememberHint(dw::index_t vertex) const;
-  const detail::WalkQuery& query() const;
+  const dw::CallerMetricSearch& query() const;
 
-  detail::WalkQuery::ConstPtr query_;
+  dw::CallerMetricSearch::ConstPtr query_;
   dw::DelaunayGraph::ConstPtr pending_graph_;
   std::vector<std::int32_t> cloud_to_input_;  ///< only with an indices subset; -1 = not in it
   dw::StartStrategy strategy_ = dw::StartStrategy::KdAnn;

@@ -1,5 +1,5 @@
 // Block-parallel Delaunay edges: blocks + certified, growing halos. See block_parallel_builder.h.
-#include "pcl_delaunay_walk/core/builder3d/block_parallel_builder.h"
+#include "block_parallel_builder.h"
 
 #include <algorithm>
 #include <array>
@@ -8,9 +8,9 @@
 #include <limits>
 #include <thread>
 
-#include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
-#include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
-#include "pcl_delaunay_walk/core/builder3d/rounded_circumsphere.h"
+#include "delaunay_kernel_3d.h"
+#include "insertion_order.h"
+#include "core/geometry/rounded_circumsphere.h"
 
 namespace dw {
 namespace builder3d {

@@ -1,5 +1,5 @@
 // Incremental Bowyer-Watson on flat arrays. See delaunay_kernel_3d.h for the representation.
-#include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
+#include "delaunay_kernel_3d.h"
 
 #include <algorithm>
 #include <array>
@@ -16,15 +16,15 @@
 #include <emmintrin.h>
 #endif
 
-#include "../multiversioning.h"
-#include "../page_memory.h"
-#include "../parallel_bucket.h"
-#include "../parallel_sort.h"
-#include "pcl_delaunay_walk/core/builder3d/affine_span.h"
-#include "pcl_delaunay_walk/core/parallel_for.h"
-#include "pcl_delaunay_walk/core/predicates_3d.h"
-#include "pcl_delaunay_walk/core/predicates_3d_lanes.h"
-#include "pcl_delaunay_walk/core/process_memory.h"
+#include "core/util/multiversioning.h"
+#include "core/util/page_memory.h"
+#include "core/util/parallel_bucket.h"
+#include "core/util/parallel_sort.h"
+#include "core/geometry/affine_span.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
+#include "pcl_delaunay_walk/core/geometry/predicates_3d.h"
+#include "core/geometry/predicates_3d_simd.h"
+#include "core/util/process_memory.h"
 
 // The insertion (insertCore with the walk and the linking inlined) is compiled twice, for baseline
 // x86-64 and for x86-64-v3, and each call takes the version the CPU can run (multiversioning.h).

@@ -11,10 +11,10 @@
 #include <thread>
 #include <utility>
 
-#include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
-#include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
-#include "pcl_delaunay_walk/core/graph_builder.h"
-#include "pcl_delaunay_walk/core/thread_team.h"
+#include "delaunay_kernel_3d.h"
+#include "insertion_order.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
 
 namespace dw {
 
@@ -31,7 +31,7 @@ EdgeList incrementalDelaunayEdges(const std::vector<Vec3f>& points, const BuildO
       throw Error("dw::incrementalDelaunayEdges: non-finite coordinate in the input");
 
   // One team of threads for every parallel loop of the job: the order, each parallel pass (about five
-  // loops each) and the extraction (thread_team.h).
+  // loops each) and the extraction (parallel_for.h).
   ThreadTeam team(threads);
   ThreadTeam::Scope scope(team);
   builder3d::DelaunayKernel3D::EdgeChunks chunks;

@@ -1,16 +1,16 @@
-#include "pcl_delaunay_walk/core/builder3d/insertion_order.h"
+#include "insertion_order.h"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <functional>
 
-#include "../page_memory.h"
-#include "../parallel_bucket.h"
-#include "../parallel_sort.h"
-#include "pcl_delaunay_walk/core/parallel_for.h"
-#include "pcl_delaunay_walk/core/space_filling_curve.h"
-#include "pcl_delaunay_walk/core/uninitialised_allocator.h"
+#include "core/util/page_memory.h"
+#include "core/util/parallel_bucket.h"
+#include "core/util/parallel_sort.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
+#include "core/util/space_filling_curve.h"
+#include "pcl_delaunay_walk/core/util/uninitialised_allocator.h"
 
 namespace dw {
 namespace builder3d {

@@ -21,8 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/builder3d/affine_span.h"
-#include "pcl_delaunay_walk/core/builder3d/delaunay_kernel_3d.h"
+#include "core/geometry/affine_span.h"
+#include "delaunay_kernel_3d.h"
 
 namespace dw {
 namespace builder3d {

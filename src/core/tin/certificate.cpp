@@ -6,7 +6,7 @@
 #include <cmath>
 #include <unordered_map>
 
-#include "pcl_delaunay_walk/core/predicates_2d.h"
+#include "pcl_delaunay_walk/core/geometry/predicates_2d.h"
 
 namespace dw {
 namespace tin {

@@ -12,12 +12,12 @@
 #include <mutex>
 #include <system_error>
 
-#include "../page_memory.h"
+#include "core/util/page_memory.h"
 #include "bowyer_watson.h"
 #include "merge_scheduler.h"
-#include "pcl_delaunay_walk/core/parallel_for.h"
-#include "pcl_delaunay_walk/core/predicates_2d.h"
-#include "pcl_delaunay_walk/core/thread_team.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
+#include "pcl_delaunay_walk/core/geometry/predicates_2d.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
 #include "strip_merge.h"
 
 namespace dw {
@@ -163,7 +163,7 @@ TinResult triangulate(std::vector<double>&& x, std::vector<double>&& y, const Ti
       tn_ready = done.get_future().share();
     }
   };
-  // One team of threads for every parallel pass of this call (see thread_team.h). Declared after the
+  // One team of threads for every parallel pass of this call (see parallel_for.h). Declared after the
   // helper's guard, so on the way out the team is stopped before the helper is waited for.
   ThreadTeam team(threads);
 

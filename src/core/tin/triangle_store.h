@@ -12,8 +12,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/predicates_2d.h"
-#include "pcl_delaunay_walk/core/types.h"
+#include "pcl_delaunay_walk/core/geometry/predicates_2d.h"
+#include "pcl_delaunay_walk/core/graph/types.h"
 
 namespace dw {
 namespace tin {

@@ -19,8 +19,8 @@
 #include <memory>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/delaunay_graph.h"
-#include "pcl_delaunay_walk/core/point_view.h"
+#include "pcl_delaunay_walk/core/graph/delaunay_graph.h"
+#include "pcl_delaunay_walk/core/graph/point_view.h"
 #include "pcl_delaunay_walk/gpu/device_array.h"
 
 namespace pcl {

@@ -22,7 +22,7 @@
 #include <memory>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/point_view.h"
+#include "pcl_delaunay_walk/core/graph/point_view.h"
 #include "pcl_delaunay_walk/gpu/delaunay_walk.h"
 #include "pcl_delaunay_walk/gpu/device_array.h"
 

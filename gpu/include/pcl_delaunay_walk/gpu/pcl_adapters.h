@@ -11,7 +11,7 @@
 #include <Eigen/Core>
 #include <type_traits>
 
-#include "pcl_delaunay_walk/core/point_view.h"
+#include "pcl_delaunay_walk/core/graph/point_view.h"
 #include "pcl_delaunay_walk/gpu/iterative_closest_point.h"
 
 namespace pcl {

@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <string>
 
-#include "pcl_delaunay_walk/core/types.h"
+#include "pcl_delaunay_walk/core/graph/types.h"
 
 namespace dw {
 namespace las {

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/types.h"
+#include "pcl_delaunay_walk/core/graph/types.h"
 
 namespace dw {
 namespace tin {

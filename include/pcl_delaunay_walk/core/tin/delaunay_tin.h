@@ -12,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/types.h"
+#include "pcl_delaunay_walk/core/graph/types.h"
 
 namespace dw {
 namespace tin {

@@ -7,8 +7,8 @@
 #include <chrono>
 #include <cmath>
 
-#include "pcl_delaunay_walk/core/parallel_for.h"
-#include "pcl_delaunay_walk/core/query_order.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
+#include "pcl_delaunay_walk/core/search/query_order.h"
 #include "pcl_delaunay_walk/registration/correspondence_estimation_delaunay_walk.h"
 
 namespace pcl {
@@ -48,14 +48,14 @@ bool CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::ini
   if (auto walk_tree = std::dynamic_pointer_cast<pcl::search::KdTreeDelaunayWalk<PointTarget>>(tree_)) {
     if (walk_tree->getDelaunayWalk() != walk_) walk_ = walk_tree->getDelaunayWalk();
     // With force_no_recompute the user has set the tree's cloud and asked us to leave it alone.
-    tree_owns_target = force_no_recompute_ && walk_->getWalkQuery();
+    tree_owns_target = force_no_recompute_ && walk_->getCallerMetricSearch();
   }
   if (target_cloud_updated_ && !tree_owns_target) {
     // Content-checked: an unchanged target keeps its graph, so this is one comparison per align().
     walk_->setInputCloud(target_, target_indices_);
   }
   target_cloud_updated_ = false;
-  if (!walk_->getWalkQuery()) walk_->setInputCloud(target_, target_indices_);
+  if (!walk_->getCallerMetricSearch()) walk_->setInputCloud(target_, target_indices_);
   return PCLBase<PointSource>::initCompute();
 }
 
@@ -63,7 +63,7 @@ template <typename PointSource, typename PointTarget, typename Scalar>
 void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::searchAll(
     double max_distance, bool reciprocal, pcl::Correspondences& correspondences) {
   const auto t0 = std::chrono::steady_clock::now();
-  const pcl::search::detail::WalkQuery& wq = *walk_->getWalkQuery();
+  const dw::CallerMetricSearch& wq = *walk_->getCallerMetricSearch();
   const std::size_t n = indices_->size();
   if (hint_source_ != input_.get() || hints_.size() != input_->size() || hint_graph_ != wq.id()) {
     hints_.assign(input_->size(), dw::kInvalidIndex);
@@ -109,8 +109,8 @@ void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::sea
       const PointSource& p = (*input_)[idx];
       const float q[3] = {p.x, p.y, p.z};
       if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !std::isfinite(q[2])) continue;
-      pcl::search::detail::WalkNeighbour nb;
-      pcl::search::detail::WalkQueryStats qs;
+      dw::WalkNeighbour nb;
+      dw::CallerMetricSearchStats qs;
       const dw::index_t hint = use_hints ? hints_[idx] : dw::kInvalidIndex;
       if (!wq.nearest(q, strategy_, hint, nb, &qs)) continue;
       ++st.queries;

@@ -7,7 +7,7 @@
 #include <cstring>
 #include <type_traits>
 
-#include "pcl_delaunay_walk/core/graph_io.h"
+#include "pcl_delaunay_walk/core/graph/graph_io.h"
 #include "pcl_delaunay_walk/search/delaunay_walk.h"
 
 namespace pcl {
@@ -45,7 +45,7 @@ void gatherXyz(const pcl::PointCloud<PointT>& cloud, const pcl::Indices* indices
 }
 
 /// Bitwise equality (NaN-safe): the graph is reused only for exactly the same coordinates.
-inline bool sameContent(const WalkQuery& q, const std::vector<float>& xyz,
+inline bool sameContent(const dw::CallerMetricSearch& q, const std::vector<float>& xyz,
                         const std::vector<std::int32_t>& input_to_cloud) {
   return q.inputXyz().size() == xyz.size() && q.inputToCloud() == input_to_cloud &&
          (xyz.empty() || std::memcmp(q.inputXyz().data(), xyz.data(), xyz.size() * sizeof(float)) == 0);
@@ -63,16 +63,16 @@ void DelaunayWalk<PointT>::setInputCloud(const PointCloudConstPtr& cloud, const 
   std::vector<std::int32_t> map;
   detail::gatherXyz(*cloud, indices.get(), xyz, map);
   const auto t0 = std::chrono::steady_clock::now();
-  detail::WalkQuery::ConstPtr q;
+  dw::CallerMetricSearch::ConstPtr q;
   if (pending_graph_) {
-    detail::WalkQuery::checkGraphMatches(*pending_graph_, xyz);
-    q = std::make_shared<const detail::WalkQuery>(pending_graph_, std::move(xyz), std::move(map));
+    dw::CallerMetricSearch::checkGraphMatches(*pending_graph_, xyz);
+    q = std::make_shared<const dw::CallerMetricSearch>(pending_graph_, std::move(xyz), std::move(map));
   } else if (query_ && detail::sameContent(*query_, xyz, map)) {
     q = query_;  // PCL re-sets unchanged targets (every Registration::align()): keep the graph
   } else {
     auto graph = std::make_shared<const dw::DelaunayGraph>(
         dw::buildDelaunayGraph(dw::PointView::fromFloat(xyz.data(), xyz.size() / 3), build_options_));
-    q = std::make_shared<const detail::WalkQuery>(std::move(graph), std::move(xyz), std::move(map));
+    q = std::make_shared<const dw::CallerMetricSearch>(std::move(graph), std::move(xyz), std::move(map));
     ++num_builds_;
   }
   const bool reused = q == query_;
@@ -130,7 +130,7 @@ dw::DelaunayGraph::ConstPtr DelaunayWalk<PointT>::getGraph() const {
 }
 
 template <typename PointT>
-const detail::WalkQuery& DelaunayWalk<PointT>::query() const {
+const dw::CallerMetricSearch& DelaunayWalk<PointT>::query() const {
   if (!query_) throw dw::Error("pcl::search::DelaunayWalk: no input cloud (call setInputCloud first)");
   return *query_;
 }
@@ -146,7 +146,7 @@ struct SequenceHint {
   }
 };
 
-inline void toPcl(const std::vector<WalkNeighbour>& r, Indices& k_indices,
+inline void toPcl(const std::vector<dw::WalkNeighbour>& r, Indices& k_indices,
                   std::vector<float>& k_sqr_distances) {
   k_indices.resize(r.size());
   k_sqr_distances.resize(r.size());
@@ -156,8 +156,8 @@ inline void toPcl(const std::vector<WalkNeighbour>& r, Indices& k_indices,
   }
 }
 
-inline std::vector<WalkNeighbour>& resultScratch() {
-  thread_local std::vector<WalkNeighbour> r;
+inline std::vector<dw::WalkNeighbour>& resultScratch() {
+  thread_local std::vector<dw::WalkNeighbour> r;
   return r;
 }
 }  // namespace detail
@@ -181,9 +181,9 @@ void DelaunayWalk<PointT>::rememberHint(dw::index_t vertex) const {
 template <typename PointT>
 int DelaunayWalk<PointT>::knnFrom(const float q[3], int k, dw::StartStrategy strategy, dw::index_t hint,
                                   Indices& k_indices, std::vector<float>& k_sqr_distances) const {
-  const detail::WalkQuery& wq = query();
+  const dw::CallerMetricSearch& wq = query();
   auto& r = detail::resultScratch();
-  detail::WalkQueryStats stats;
+  dw::CallerMetricSearchStats stats;
   if (k > 0)
     wq.knn(q, static_cast<std::size_t>(k), strategy, hint, r, &stats);
   else
@@ -197,9 +197,9 @@ template <typename PointT>
 int DelaunayWalk<PointT>::radiusFrom(const float q[3], double radius, unsigned int max_nn,
                                      dw::StartStrategy strategy, dw::index_t hint, Indices& k_indices,
                                      std::vector<float>& k_sqr_distances) const {
-  const detail::WalkQuery& wq = query();
+  const dw::CallerMetricSearch& wq = query();
   auto& r = detail::resultScratch();
-  detail::WalkQueryStats stats;
+  dw::CallerMetricSearchStats stats;
   wq.radius(q, radius, max_nn, strategy, hint, r, &stats);
   if (stats.nn_vertex != dw::kInvalidIndex) rememberHint(stats.nn_vertex);
   detail::toPcl(r, k_indices, k_sqr_distances);
@@ -224,7 +224,7 @@ std::int64_t DelaunayWalk<PointT>::inputOfCloudIndex(index_t index) const {
 template <typename PointT>
 int DelaunayWalk<PointT>::nearestKSearch(index_t index, int k, Indices& k_indices,
                                          std::vector<float>& k_sqr_distances) const {
-  const detail::WalkQuery& wq = query();
+  const dw::CallerMetricSearch& wq = query();
   if (index < 0 || static_cast<std::size_t>(index) >= wq.numInputs()) {
     k_indices.clear();
     k_sqr_distances.clear();
@@ -262,7 +262,7 @@ int DelaunayWalk<PointT>::radiusSearch(const PointT& point, double radius, Indic
 template <typename PointT>
 int DelaunayWalk<PointT>::radiusSearch(index_t index, double radius, Indices& k_indices,
                                        std::vector<float>& k_sqr_distances, unsigned int max_nn) const {
-  const detail::WalkQuery& wq = query();
+  const dw::CallerMetricSearch& wq = query();
   if (index < 0 || static_cast<std::size_t>(index) >= wq.numInputs()) {
     k_indices.clear();
     k_sqr_distances.clear();

@@ -1,0 +1,186 @@
+#include "pcl_delaunay_walk/core/graph/graph_io.h"
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+namespace dw {
+
+namespace {
+
+constexpr char kMagic[8] = {'D', 'W', 'G', 'R', 'A', 'P', 'H', '\0'};
+
+/// Fixed-size little-endian header. Every field is covered by header_checksum, the arrays by
+/// payload_checksum; sizes are checked against the file size before anything is allocated.
+struct Header {
+  char magic[8];
+  std::uint32_t version;
+  std::uint32_t header_size;
+  std::uint32_t dimension;
+  std::uint32_t flags;
+  std::uint64_t num_vertices;
+  std::uint64_t num_edges;
+  std::uint64_t num_input;
+  std::uint64_t num_originals;
+  double origin[3];
+  std::uint64_t payload_bytes;
+  std::uint64_t payload_checksum;
+  std::uint64_t header_checksum;  ///< over all bytes before this field
+};
+static_assert(sizeof(Header) == 104, "header layout");
+
+/// 64-bit word-wise hash (multiply-xorshift): ~memory speed, and any byte flip changes it.
+std::uint64_t checksumImpl(const std::uint8_t* p, std::size_t n) {
+  std::uint64_t h = 0x9E3779B97F4A7C15ULL ^ n;
+  std::size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    std::uint64_t w;
+    std::memcpy(&w, p + i, 8);
+    h = (h ^ w) * 0xff51afd7ed558ccdULL;
+    h ^= h >> 29;
+  }
+  for (; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ULL;
+  h ^= h >> 33;
+  h *= 0xc4ceb9fe1a85ec53ULL;
+  return h ^ (h >> 33);
+}
+
+[[noreturn]] void fail(const std::string& why) {
+  throw GraphFileError("pcl_delaunay_walk: bad graph file: " + why);
+}
+
+/// a * b + acc without overflow, or fail.
+std::uint64_t mulAdd(std::uint64_t a, std::uint64_t b, std::uint64_t acc) {
+  if (b != 0 && a > (std::numeric_limits<std::uint64_t>::max() - acc) / b) fail("sizes overflow");
+  return acc + a * b;
+}
+
+template <typename T, typename A>
+void appendArray(std::vector<std::uint8_t>& out, const std::vector<T, A>& v) {
+  const auto* p = reinterpret_cast<const std::uint8_t*>(v.data());
+  out.insert(out.end(), p, p + v.size() * sizeof(T));
+}
+
+template <typename T, typename A>
+void readArray(const std::uint8_t*& p, std::vector<T, A>& v, std::uint64_t count) {
+  v.resize(count);
+  if (count != 0) std::memcpy(v.data(), p, count * sizeof(T));  // memcpy(nullptr, ., 0) is UB
+  p += count * sizeof(T);
+}
+
+}  // namespace
+
+std::uint64_t graphFileChecksum(const std::uint8_t* data, std::size_t n) {
+  return checksumImpl(data, n);
+}
+
+void resealGraphFile(std::vector<std::uint8_t>& f) {
+  if (f.size() < sizeof(Header)) return;
+  const std::uint64_t payload = checksumImpl(f.data() + sizeof(Header), f.size() - sizeof(Header));
+  std::memcpy(f.data() + offsetof(Header, payload_checksum), &payload, 8);
+  const std::uint64_t header = checksumImpl(f.data(), offsetof(Header, header_checksum));
+  std::memcpy(f.data() + offsetof(Header, header_checksum), &header, 8);
+}
+
+std::vector<std::uint8_t> serializeGraph(const DelaunayGraph& g) {
+  Header h{};
+  std::memcpy(h.magic, kMagic, 8);
+  h.version = kGraphFileVersion;
+  h.header_size = sizeof(Header);
+  h.dimension = static_cast<std::uint32_t>(g.dimension);
+  h.num_vertices = g.points.size();
+  h.num_edges = g.edges.size();
+  h.num_input = g.input_to_vertex.size();
+  h.num_originals = g.originals.size();
+  for (int a = 0; a < 3; ++a) h.origin[a] = g.origin[a];
+  std::vector<std::uint8_t> out(sizeof(Header));
+  appendArray(out, g.points);
+  appendArray(out, g.offsets);
+  appendArray(out, g.edges);
+  appendArray(out, g.input_to_vertex);
+  appendArray(out, g.originals_offsets);
+  appendArray(out, g.originals);
+  h.payload_bytes = out.size() - sizeof(Header);
+  h.payload_checksum = checksumImpl(out.data() + sizeof(Header), h.payload_bytes);
+  h.header_checksum =
+      checksumImpl(reinterpret_cast<const std::uint8_t*>(&h), offsetof(Header, header_checksum));
+  std::memcpy(out.data(), &h, sizeof(Header));
+  return out;
+}
+
+void saveGraph(const DelaunayGraph& g, const std::string& path) {
+  const auto bytes = serializeGraph(g);
+  std::ofstream f(path, std::ios::binary | std::ios::trunc);
+  if (!f) throw Error("pcl_delaunay_walk: cannot open '" + path + "' for writing");
+  f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  f.close();
+  if (!f) throw Error("pcl_delaunay_walk: writing '" + path + "' failed (disk full?)");
+}
+
+DelaunayGraph deserializeGraph(const std::uint8_t* data, std::size_t size) {
+  if (size < sizeof(Header)) fail("shorter than its header (" + std::to_string(size) + " bytes)");
+  Header h;
+  std::memcpy(&h, data, sizeof(Header));
+  if (std::memcmp(h.magic, kMagic, 8) != 0) fail("not a pcl_delaunay_walk graph (magic mismatch)");
+  if (h.header_checksum != checksumImpl(data, offsetof(Header, header_checksum)))
+    fail("header checksum mismatch");
+  if (h.version != kGraphFileVersion)
+    fail("version " + std::to_string(h.version) + " is not supported (this build reads version " +
+         std::to_string(kGraphFileVersion) + ")");
+  if (h.header_size != sizeof(Header) || h.dimension > 3) fail("malformed header");
+  if (h.flags != 0) fail("unknown feature flags " + std::to_string(h.flags) + " for version 1");
+  std::uint64_t expect = 0;
+  expect = mulAdd(h.num_vertices, sizeof(Vec3f), expect);
+  expect = mulAdd(h.num_vertices + 1, 2 * sizeof(index_t), expect);
+  expect = mulAdd(h.num_edges, sizeof(EdgeRecord), expect);
+  expect = mulAdd(h.num_input, sizeof(index_t), expect);
+  expect = mulAdd(h.num_originals, sizeof(index_t), expect);
+  if (h.num_vertices >= kInvalidIndex || h.num_input >= kInvalidIndex || h.num_edges >= kInvalidIndex)
+    fail("counts exceed 32-bit indices");
+  if (expect != h.payload_bytes || size - sizeof(Header) != h.payload_bytes)
+    fail("truncated or padded: payload is " + std::to_string(size - sizeof(Header)) + " bytes, header says " +
+         std::to_string(h.payload_bytes) + ", arrays need " + std::to_string(expect));
+  const std::uint8_t* p = data + sizeof(Header);
+  if (h.payload_checksum != checksumImpl(p, h.payload_bytes))
+    fail("payload checksum mismatch (corrupt file)");
+
+  DelaunayGraph g;
+  g.dimension = static_cast<int>(h.dimension);
+  for (int a = 0; a < 3; ++a) g.origin[a] = h.origin[a];
+  readArray(p, g.points, h.num_vertices);
+  readArray(p, g.offsets, h.num_vertices + 1);
+  readArray(p, g.edges, h.num_edges);
+  readArray(p, g.input_to_vertex, h.num_input);
+  readArray(p, g.originals_offsets, h.num_vertices + 1);
+  readArray(p, g.originals, h.num_originals);
+  sortNeighbourhoods(g);  // files from before the shortest-first order (same format otherwise)
+  try {
+    g.validate();
+  } catch (const Error& e) {
+    fail(e.what());
+  }
+  computeSafeRadii(g);  // derived data: recomputed (O(E)) rather than trusted from the file
+  return g;
+}
+
+DelaunayGraph loadGraph(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw GraphFileError("pcl_delaunay_walk: cannot open graph file '" + path + "': not a regular file");
+  std::ifstream f(path, std::ios::binary | std::ios::ate);
+  if (!f) throw GraphFileError("pcl_delaunay_walk: cannot open graph file '" + path + "'");
+  const std::streamoff size = f.tellg();
+  if (size < 0) throw GraphFileError("pcl_delaunay_walk: cannot read graph file '" + path + "'");
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(size));
+  f.seekg(0);
+  f.read(reinterpret_cast<char*>(bytes.data()), size);
+  if (!f) throw GraphFileError("pcl_delaunay_walk: cannot read graph file '" + path + "'");
+  try {
+    return deserializeGraph(bytes.data(), bytes.size());
+  } catch (const GraphFileError& e) {
+    throw GraphFileError(std::string(e.what()) + " ('" + path + "')");
+  }
+}
+
+}  // namespace dw

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Run HERE (the development machine), once per session, before using the device machine: fills the
+# git-ignored folder .deps/ with what the device lacks: Qhull (headers, the reentrant library and a
+# minimal CMake package), nanoflann's header, and the real clouds the GPU tests and benchmark read.
+# The device call then names .deps in `carry` and runs tools/device/run.sh.
+set -euo pipefail
+ROOT=$(cd "$(dirname "$0")/../.." && pwd)
+DEPS=$ROOT/.deps
+DATA=${DW_SHARED_DATA_DIR:-$ROOT/../shared/data}
+mkdir -p "$DEPS/qhull/include" "$DEPS/qhull/lib/cmake/Qhull" "$DEPS/nanoflann" "$DEPS/data/models" "$DEPS/data/scans"
+
+cp -r /usr/include/libqhull_r "$DEPS/qhull/include/"
+cp -L /usr/lib/x86_64-linux-gnu/libqhull_r.so.8.0 "$DEPS/qhull/lib/"
+# Debian's own QhullTargets.cmake insists on every Qhull library being present; the core needs only
+# the reentrant C library, so a five-line package config stands in for it.
+cat > "$DEPS/qhull/lib/cmake/Qhull/QhullConfig.cmake" <<'CFG'
+get_filename_component(_dw_qhull_prefix "${CMAKE_CURRENT_LIST_DIR}/../../.." ABSOLUTE)
+if(NOT TARGET Qhull::qhull_r)
+  add_library(Qhull::qhull_r SHARED IMPORTED)
+  set_target_properties(Qhull::qhull_r PROPERTIES IMPORTED_LOCATION "${_dw_qhull_prefix}/lib/libqhull_r.so.8.0"
+    INTERFACE_INCLUDE_DIRECTORIES "${_dw_qhull_prefix}/include")
+endif()
+set(Qhull_FOUND TRUE)
+CFG
+
+cp /usr/include/nanoflann.hpp "$DEPS/nanoflann/"
+
+for f in dragon_vrip.ply.gz dragon_vrip_res2.ply.gz dragon_vrip_res3.ply dragon_vrip_res4.ply bun000.ply bun045.ply; do
+  cp "$DATA/models/$f" "$DEPS/data/models/"
+done
+for f in fastgicp_251370668.pcd fastgicp_251371071.pcd fastgicp_relative.txt; do
+  cp "$DATA/scans/$f" "$DEPS/data/scans/"
+done
+du -sh "$DEPS"
