@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "core/builder3d/block_parallel_builder.h"
-#include "core/builder3d/delaunay_kernel_3d.h"
+#include "core/builder3d/triangulation_3d.h"
 #include "core/builder3d/insertion_order.h"
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "core/util/process_memory.h"

@@ -20,7 +20,7 @@
 #include <tuple>
 #include <vector>
 
-#include "core/builder3d/delaunay_kernel_3d.h"
+#include "core/builder3d/triangulation_3d.h"
 #include "core/builder3d/insertion_order.h"
 #include "pcl_delaunay_walk/core/graph/dynamic_delaunay_graph.h"
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
@@ -143,7 +143,7 @@ void rebuild(benchmark::State& state, Kind kind) {
     const auto t1 = cpuSeconds();
     {
       // The triangulation alone (BRIO + Bowyer-Watson), the part that removal and insertion replace.
-      dw::builder3d::DelaunayKernel3D k;
+      dw::builder3d::Triangulation3D k;
       k.setPoints(pts.data(), pts.size());
       const auto order = dw::builder3d::brioOrder(pts);
       k.build(order.data(), order.size());

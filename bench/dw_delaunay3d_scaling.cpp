@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "app_args.h"
-#include "core/builder3d/delaunay_kernel_3d.h"
+#include "core/builder3d/triangulation_3d.h"
 #include "core/builder3d/insertion_order.h"
 #include "pcl_delaunay_walk/core/graph/delaunay_graph.h"
 #include "pcl_delaunay_walk/core/util/point_file.h"
@@ -74,7 +74,7 @@ Run buildOnce(const std::vector<dw::Vec3f>& pts, unsigned threads, bool validate
   std::vector<std::size_t> rounds;
   std::vector<dw::index_t> order = dw::builder3d::brioOrder(pts, rounds, 0, threads);
   const auto t1 = std::chrono::steady_clock::now();
-  dw::builder3d::DelaunayKernel3D kernel;
+  dw::builder3d::Triangulation3D kernel;
   kernel.setPoints(pts.data(), pts.size());
   kernel.build(std::move(order), {}, rounds, threads);
   const auto t2 = std::chrono::steady_clock::now();
@@ -112,7 +112,7 @@ Run buildOnce(const std::vector<dw::Vec3f>& pts, unsigned threads, bool validate
   const auto t5 = std::chrono::steady_clock::now();
   dw::DelaunayGraph graph;
   graph.points = pts;
-  dw::assembleEdges(graph, dw::builder3d::DelaunayKernel3D::joinChunks(std::move(chunks)), true, threads);
+  dw::assembleEdges(graph, dw::builder3d::Triangulation3D::joinChunks(std::move(chunks)), true, threads);
   r.assemble_s = seconds(t5, std::chrono::steady_clock::now());
   return r;
 }
@@ -129,7 +129,7 @@ double independentBuilds(const std::vector<dw::Vec3f>& pts, unsigned threads) {
       // Each is a whole build, ordered as the shared one is (fourfold rounds).
       const std::vector<dw::index_t> order =
           dw::builder3d::brioOrder(pts, ids, 0, dw::builder3d::BrioGrowth::kFourfold);
-      dw::builder3d::DelaunayKernel3D kernel;
+      dw::builder3d::Triangulation3D kernel;
       kernel.setPoints(pts.data(), pts.size());
       kernel.build(order.data(), order.size());
     });

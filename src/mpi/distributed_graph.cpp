@@ -17,7 +17,7 @@
 #include <numeric>
 #include <unordered_map>
 
-#include "core/builder3d/delaunay_kernel_3d.h"
+#include "core/builder3d/triangulation_3d.h"
 #include "core/geometry/rounded_circumsphere.h"
 #include "pcl_delaunay_walk/core/geometry/predicates_3d.h"
 #include "core/util/space_filling_curve.h"
@@ -27,7 +27,7 @@ namespace dw {
 namespace mpi {
 namespace {
 
-using builder3d::DelaunayKernel3D;
+using builder3d::Triangulation3D;
 using builder3d::RoundedCircumsphere;
 using builder3d::roundedCircumsphere;
 
@@ -493,10 +493,10 @@ class RankBlock {
         const std::uint32_t now = kernel_.clock();
         auto check = [&](std::size_t t) {
           const index_t* tv = kernel_.tetVertices(t);
-          if (tv[0] == DelaunayKernel3D::kDead) return;
+          if (tv[0] == Triangulation3D::kDead) return;
           int mine = -1;
           for (unsigned k = 0; k < 4; ++k) {
-            if (tv[k] == DelaunayKernel3D::kInfinite) return;  // settled by the global hull
+            if (tv[k] == Triangulation3D::kInfinite) return;  // settled by the global hull
             if (tv[k] >= first_ && tv[k] < last_) mine = static_cast<int>(k);
           }
           if (mine < 0) return;
@@ -673,7 +673,7 @@ class RankBlock {
   std::size_t per_tet_ = kPerTetrahedron;
   static constexpr std::uint32_t kNoPass = 0xFFFFFFFFu;
   std::uint32_t last_pass_ = kNoPass;
-  DelaunayKernel3D kernel_;
+  Triangulation3D kernel_;
   std::size_t halo_points_ = 0, fetched_points_ = 0, rounds_ = 0, exchanges_ = 0;
   double exchange_s_ = 0;
 };
@@ -905,7 +905,7 @@ RankGraph buildGraphDistributed(MPI_Comm comm, const PointInputSet& input, const
                 MPI_BOR, comm);
 
   // 6. The block: own vertices plus one ring of cells, triangulated.
-  if (nv > DelaunayKernel3D::kMaxVertices)
+  if (nv > Triangulation3D::kMaxVertices)
     throw Error("dw::mpi: " + std::to_string(nv) + " vertices exceed the 3D kernel's limit");
   SparsePoints pts(nv);
   std::copy(g.points.begin(), g.points.end(), pts.data() + base);
@@ -935,7 +935,7 @@ RankGraph buildGraphDistributed(MPI_Comm comm, const PointInputSet& input, const
     SparsePoints hp(nv);
     std::vector<index_t> ids;
     for (const Cand& c : all_cand) hp[c.id] = c.p, ids.push_back(c.id);
-    DelaunayKernel3D k;
+    Triangulation3D k;
     k.setPoints(hp.data(), hp.size());
     const std::vector<index_t> order = brio(ids);
     k.build(order.data(), order.size());

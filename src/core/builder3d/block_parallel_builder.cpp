@@ -8,7 +8,7 @@
 #include <limits>
 #include <thread>
 
-#include "delaunay_kernel_3d.h"
+#include "triangulation_3d.h"
 #include "insertion_order.h"
 #include "core/geometry/rounded_circumsphere.h"
 
@@ -142,10 +142,10 @@ class Block {
       const std::uint32_t now = kernel_.clock();
       auto check = [&](std::size_t t) {
         const index_t* tv = kernel_.tetVertices(t);
-        if (tv[0] == DelaunayKernel3D::kDead) return;
+        if (tv[0] == Triangulation3D::kDead) return;
         bool mine = false, infinite = false;
         for (unsigned k = 0; k < 4; ++k) {
-          if (tv[k] == DelaunayKernel3D::kInfinite) {
+          if (tv[k] == Triangulation3D::kInfinite) {
             infinite = true;
           } else if (tv[k] >= first_ && tv[k] < last_) {
             mine = true;
@@ -239,7 +239,7 @@ class Block {
   std::vector<index_t> extra_;         // global hull points inserted outside the held cells, sorted
   static constexpr std::uint32_t kNoPass = 0xFFFFFFFFu;
   std::uint32_t last_pass_ = kNoPass;  // kernel clock at the last certification pass
-  DelaunayKernel3D kernel_;
+  Triangulation3D kernel_;
   std::size_t halo_points_ = 0, rounds_ = 0;
 };
 
@@ -271,12 +271,12 @@ EdgeList blockParallelDelaunayEdges(const std::vector<Vec3f>& points, unsigned n
                                     BlockBuildStats* stats) {
   const std::size_t n = points.size();
   if (num_blocks <= 1 || n < 5) {
-    DelaunayKernel3D k;
+    Triangulation3D k;
     k.setPoints(points.data(), n);
     const std::vector<index_t> order = brioOrder(points);
     k.build(order.data(), order.size());
     if (stats) *stats = BlockBuildStats{1, 0, 0, 0};
-    return DelaunayKernel3D::joinChunks(k.releaseIntoEdgeChunks(1));
+    return Triangulation3D::joinChunks(k.releaseIntoEdgeChunks(1));
   }
   const CellGrid grid(points);
   std::vector<Block> blocks;
@@ -297,7 +297,7 @@ EdgeList blockParallelDelaunayEdges(const std::vector<Vec3f>& points, unsigned n
   candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
   std::vector<index_t> hull;
   {
-    DelaunayKernel3D k;
+    Triangulation3D k;
     k.setPoints(points.data(), n);
     const std::vector<index_t> order = brioOrder(points, candidates);
     k.build(order.data(), order.size());

@@ -11,7 +11,7 @@
 #include <thread>
 #include <utility>
 
-#include "delaunay_kernel_3d.h"
+#include "triangulation_3d.h"
 #include "insertion_order.h"
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
@@ -34,9 +34,9 @@ EdgeList incrementalDelaunayEdges(const std::vector<Vec3f>& points, const BuildO
   // loops each) and the extraction (parallel_for.h).
   ThreadTeam team(threads);
   ThreadTeam::Scope scope(team);
-  builder3d::DelaunayKernel3D::EdgeChunks chunks;
+  builder3d::Triangulation3D::EdgeChunks chunks;
   {
-    builder3d::DelaunayKernel3D kernel;
+    builder3d::Triangulation3D kernel;
     kernel.setPoints(points.data(), points.size());
     {
       std::function<void(double)> progress;
@@ -47,7 +47,7 @@ EdgeList incrementalDelaunayEdges(const std::vector<Vec3f>& points, const BuildO
     }
     chunks = kernel.releaseIntoEdgeChunks(threads);
   }
-  return builder3d::DelaunayKernel3D::joinChunks(std::move(chunks));
+  return builder3d::Triangulation3D::joinChunks(std::move(chunks));
 }
 
 }  // namespace dw

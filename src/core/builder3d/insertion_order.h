@@ -34,7 +34,7 @@ std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::vector<ind
                                std::uint64_t seed = 0, BrioGrowth growth = BrioGrowth::kDoubling);
 
 /// brioOrder() of all points, also giving where each round starts in the result (ascending, the
-/// first is 0): the batches of DelaunayKernel3D::build's parallel form. Computed on `num_threads`
+/// first is 0): the batches of Triangulation3D::build's parallel form. Computed on `num_threads`
 /// threads (0: all); the result does not depend on it.
 std::vector<index_t> brioOrder(const std::vector<Vec3f>& points, std::vector<std::size_t>& round_begin,
                                std::uint64_t seed = 0, unsigned num_threads = 1);

@@ -1,4 +1,4 @@
-// DelaunayKernel3D::remove: deletion of one vertex (issue 8, sliding-window maps).
+// Triangulation3D::remove: deletion of one vertex (issue 8, sliding-window maps).
 //
 // Method. Removing v from the perturbed Delaunay triangulation DT(P) changes only v's star: every other
 // tetrahedron keeps an empty (perturbed) sphere when a point leaves. The hole left by the star is filled
@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "core/geometry/affine_span.h"
-#include "delaunay_kernel_3d.h"
+#include "triangulation_3d.h"
 
 namespace dw {
 namespace builder3d {
@@ -106,8 +106,8 @@ std::string vertexName(index_t v) {
 
 }  // namespace
 
-void DelaunayKernel3D::remove(index_t v) {
-  static const char* const kWhere = "dw::DelaunayKernel3D::remove: ";
+void Triangulation3D::remove(index_t v) {
+  static const char* const kWhere = "dw::Triangulation3D::remove: ";
   if (!built()) throw Error(std::string(kWhere) + "build() first");
   if (v >= num_points_) throw Error(std::string(kWhere) + vertexName(v) + " is out of range");
   const std::size_t nt_slots = tet_v_.size() / 4;
@@ -189,7 +189,7 @@ void DelaunayKernel3D::remove(index_t v) {
     // no tetrahedron arrays). The fill is one face-connected region (the star is a ball), so it is
     // found from one seed, the tetrahedron of DT(link) on the inner side of one boundary face, by a
     // flood that does not cross boundary faces; DT(link)'s own adjacency links the fill inside.
-    thread_local DelaunayKernel3D small;
+    thread_local Triangulation3D small;
     small.setPoints(points_, num_points_);
     small.build(link.data(), link.size());
     const std::size_t small_slots = small.tet_v_.size() / 4;

@@ -8,7 +8,7 @@
 #include <string>
 #include <unordered_set>
 
-#include "core/builder3d/delaunay_kernel_3d.h"
+#include "core/builder3d/triangulation_3d.h"
 #include "core/geometry/affine_span.h"
 #include "core/builder3d/insertion_order.h"
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
@@ -29,13 +29,13 @@ std::uint32_t floatBits(float f) {
 
 }  // namespace
 
-DynamicDelaunayGraph::DynamicDelaunayGraph() : kernel_(std::make_unique<builder3d::DelaunayKernel3D>()) {}
+DynamicDelaunayGraph::DynamicDelaunayGraph() : kernel_(std::make_unique<builder3d::Triangulation3D>()) {}
 DynamicDelaunayGraph::DynamicDelaunayGraph(DynamicDelaunayGraph&&) noexcept = default;
 DynamicDelaunayGraph& DynamicDelaunayGraph::operator=(DynamicDelaunayGraph&&) noexcept = default;
 DynamicDelaunayGraph::~DynamicDelaunayGraph() = default;
 
 DynamicDelaunayGraph::DynamicDelaunayGraph(const std::array<double, 3>& origin)
-    : origin_(origin), kernel_(std::make_unique<builder3d::DelaunayKernel3D>()) {
+    : origin_(origin), kernel_(std::make_unique<builder3d::Triangulation3D>()) {
   for (double c : origin)
     if (!std::isfinite(c)) throw Error(std::string(kWhere) + "DynamicDelaunayGraph: non-finite origin");
   have_origin_ = true;
@@ -83,7 +83,7 @@ void DynamicDelaunayGraph::rebuildIfSpans3D() {
   const std::vector<index_t> slots = liveSlots();
   if (!builder3d::spans3D(points_.data(), slots.data(), slots.size())) return;
   const std::vector<index_t> order = builder3d::brioOrder(points_, slots);
-  *kernel_ = builder3d::DelaunayKernel3D();
+  *kernel_ = builder3d::Triangulation3D();
   kernel_->setPoints(points_.data(), points_.size());
   kernel_->build(order.data(), order.size());
   triangulated_ = true;
@@ -93,7 +93,7 @@ std::vector<DynamicDelaunayGraph::PointId> DynamicDelaunayGraph::insert(const Po
   const std::size_t n = view.size;
   if (n == 0) return {};
   if (view.data == nullptr) throw Error(std::string(kWhere) + "insert: point view without data");
-  if (points_.size() + n > builder3d::DelaunayKernel3D::kMaxVertices)
+  if (points_.size() + n > builder3d::Triangulation3D::kMaxVertices)
     throw Error(std::string(kWhere) + "insert: more slots than the kernel supports");
 
   // Everything is checked before anything changes: an insertion is all or nothing.
@@ -217,7 +217,7 @@ void DynamicDelaunayGraph::remove(const std::vector<PointId>& ids) {
       }
       // Below 3D: drop the triangulation; graph() uses the lower-dimensional builders until the
       // points span 3D again.
-      *kernel_ = builder3d::DelaunayKernel3D();
+      *kernel_ = builder3d::Triangulation3D();
       triangulated_ = false;
     }
   }
@@ -287,7 +287,7 @@ DelaunayGraph DynamicDelaunayGraph::graph(std::vector<PointId>* input_ids, unsig
   g.originals_offsets[n] = static_cast<index_t>(n);
 
   // Edges straight from the tetrahedra, bucketed by the smaller endpoint in vertex (Morton) order.
-  // Not DelaunayKernel3D::edgeChunks: its ranges of ids assume ids that follow a space-filling curve,
+  // Not Triangulation3D::edgeChunks: its ranges of ids assume ids that follow a space-filling curve,
   // and slots arrive in stream order, where that took several passes over the tetrahedra and left the
   // edge list unsorted for assembleEdges (measured: 40 % of graph() at 200k points).
   static constexpr unsigned kPairs[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
@@ -296,7 +296,7 @@ DelaunayGraph DynamicDelaunayGraph::graph(std::vector<PointId>* input_ids, unsig
     for (std::size_t t = 0; t < tet_slots; ++t) {
       const index_t* tv = kernel_->tetVertices(t);
       // kDead and kInfinite are the two largest ids: one comparison skips both.
-      if (std::max(std::max(tv[0], tv[1]), std::max(tv[2], tv[3])) >= builder3d::DelaunayKernel3D::kDead)
+      if (std::max(std::max(tv[0], tv[1]), std::max(tv[2], tv[3])) >= builder3d::Triangulation3D::kDead)
         continue;
       const index_t w[4] = {vertex_of_slot[tv[0]], vertex_of_slot[tv[1]], vertex_of_slot[tv[2]],
                             vertex_of_slot[tv[3]]};

@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-#include "core/builder3d/delaunay_kernel_3d.h"
+#include "core/builder3d/triangulation_3d.h"
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "core/util/space_filling_curve.h"
 #include "pcl_delaunay_walk/core/graph/types.h"
@@ -37,7 +37,7 @@ inline Edges normalise(Edges e) {
 }
 
 /// The edges of a kernel's triangulation, normalised (extracted on `threads` threads).
-inline Edges kernelEdges(const dw::builder3d::DelaunayKernel3D& k, unsigned threads = 1) {
+inline Edges kernelEdges(const dw::builder3d::Triangulation3D& k, unsigned threads = 1) {
   Edges all;
   for (auto& c : k.edgeChunks(threads)) all.insert(all.end(), c.begin(), c.end());
   return normalise(all);

@@ -1,4 +1,4 @@
-// Partitioned parallel insertion (DelaunayKernel3D::insertParallel and build's batched form): for any
+// Partitioned parallel insertion (Triangulation3D::insertParallel and build's batched form): for any
 // thread count the triangulation is valid and has exactly the sequential edge set, on general-position
 // and degenerate input, with ids in Morton order (compact cells) or not (cells scattered over the
 // cloud: slower, still exact). The ParallelInsertion.* tests also run under TSan (its filter matches
@@ -9,16 +9,16 @@
 #include <random>
 
 #include "builder3d_test_util.h"
-#include "core/builder3d/delaunay_kernel_3d.h"
+#include "core/builder3d/triangulation_3d.h"
 #include "core/builder3d/insertion_order.h"
 #include "pcl_delaunay_walk/core/util/point_file.h"
 
 namespace {
 
 using b3d_test::Edges;
-using dw::builder3d::DelaunayKernel3D;
+using dw::builder3d::Triangulation3D;
 
-Edges edgesOf(const DelaunayKernel3D& k) {
+Edges edgesOf(const Triangulation3D& k) {
   return b3d_test::kernelEdges(k, 2);
 }
 
@@ -28,10 +28,10 @@ constexpr std::size_t kTestMinPerThread = 2048;
 
 // BRIO rounds as batches, as incrementalDelaunayEdges builds.
 Edges parallelBuild(const std::vector<dw::Vec3f>& pts, unsigned threads,
-                    DelaunayKernel3D::Stats* stats = nullptr) {
+                    Triangulation3D::Stats* stats = nullptr) {
   std::vector<std::size_t> rounds;
   const auto order = dw::builder3d::brioOrder(pts, rounds);
-  DelaunayKernel3D k;
+  Triangulation3D k;
   k.setMinPointsPerThread(kTestMinPerThread);
   k.setPoints(pts.data(), pts.size());
   k.build(order.data(), order.size(), {}, rounds, threads);
@@ -45,7 +45,7 @@ void expectSameForAnyThreadCount(const std::vector<dw::Vec3f>& pts, const std::s
   const Edges ref = parallelBuild(pts, 1);
   ASSERT_GT(ref.size(), pts.size()) << what;
   for (unsigned threads : {2u, 3u, 5u}) {
-    DelaunayKernel3D::Stats stats;
+    Triangulation3D::Stats stats;
     EXPECT_EQ(parallelBuild(pts, threads, &stats), ref) << what << " on " << threads << " threads";
     EXPECT_EQ(stats.fallback_locations, 0u) << what;
     ::testing::Test::RecordProperty(
@@ -91,7 +91,7 @@ TEST(PartitionedInsertion, BatchIntoBuiltTriangulationEqualsFreshBuild) {
   const auto pts = b3d_test::mortonSorted(b3d_test::uniformCube(30000, 56));
   std::vector<dw::index_t> first, second;
   for (dw::index_t i = 0; i < pts.size(); ++i) (i % 2 ? second : first).push_back(i);
-  DelaunayKernel3D k;
+  Triangulation3D k;
   k.setMinPointsPerThread(kTestMinPerThread);
   k.setPoints(pts.data(), pts.size());
   const auto order = dw::builder3d::brioOrder(pts, first);
@@ -109,7 +109,7 @@ TEST(PartitionedInsertion, SmallBatchIntoBigTriangulationEqualsFreshBuild) {
   const auto pts = b3d_test::mortonSorted(b3d_test::uniformCube(40000, 58));
   std::vector<dw::index_t> first, second;
   for (dw::index_t i = 0; i < pts.size(); ++i) (i % 16 == 3 ? second : first).push_back(i);
-  DelaunayKernel3D k;
+  Triangulation3D k;
   k.setMinPointsPerThread(kTestMinPerThread);
   k.setPoints(pts.data(), pts.size());
   const auto order = dw::builder3d::brioOrder(pts, first);
@@ -126,7 +126,7 @@ TEST(ParallelInsertion, BadBatchesThrowAndLeaveAValidTriangulation) {
   auto pts = b3d_test::mortonSorted(b3d_test::uniformCube(20000, 57));
   std::vector<dw::index_t> first, second;
   for (dw::index_t i = 0; i < pts.size(); ++i) (i % 3 ? second : first).push_back(i);
-  DelaunayKernel3D k;
+  Triangulation3D k;
   k.setPoints(pts.data(), pts.size());
   const auto order = dw::builder3d::brioOrder(pts, first);
   k.build(order.data(), order.size());
@@ -143,7 +143,7 @@ TEST(ParallelInsertion, BadBatchesThrowAndLeaveAValidTriangulation) {
   EXPECT_THROW(k.insertParallel(with_duplicate.data(), with_duplicate.size(), 3), dw::Error);
   k.validate();
 
-  DelaunayKernel3D births;
+  Triangulation3D births;
   births.setPoints(pts.data(), pts.size());
   births.trackBirths(true);
   births.build(order.data(), order.size());

@@ -1,4 +1,4 @@
-// DelaunayKernel3D::remove: after removals (interior and hull vertices, general position and
+// Triangulation3D::remove: after removals (interior and hull vertices, general position and
 // degenerate input, a real scan) the structure validates and its edge set equals a fresh build of the
 // remaining vertices with the same ids (the perturbed triangulation is unique, so equality is exact even
 // on cospherical grids). Errors leave the structure as it was.
@@ -10,7 +10,7 @@
 
 #include "builder3d_test_util.h"
 #include "core/geometry/affine_span.h"
-#include "core/builder3d/delaunay_kernel_3d.h"
+#include "core/builder3d/triangulation_3d.h"
 #include "core/builder3d/insertion_order.h"
 #include "pcl_delaunay_walk/core/util/point_file.h"
 
@@ -18,9 +18,9 @@ namespace {
 
 using b3d_test::Edges;
 using dw::index_t;
-using dw::builder3d::DelaunayKernel3D;
+using dw::builder3d::Triangulation3D;
 
-Edges edgesOf(const DelaunayKernel3D& k) {
+Edges edgesOf(const Triangulation3D& k) {
   return b3d_test::kernelEdges(k);
 }
 
@@ -28,14 +28,14 @@ Edges edgesOf(const DelaunayKernel3D& k) {
 // does not depend on it).
 Edges freshEdges(const std::vector<dw::Vec3f>& pts, std::vector<index_t> ids, unsigned seed) {
   std::shuffle(ids.begin(), ids.end(), std::mt19937(seed));
-  DelaunayKernel3D k;
+  Triangulation3D k;
   k.setPoints(pts.data(), pts.size());
   k.build(ids.data(), ids.size());
   return edgesOf(k);
 }
 
-DelaunayKernel3D buildAll(const std::vector<dw::Vec3f>& pts) {
-  DelaunayKernel3D k;
+Triangulation3D buildAll(const std::vector<dw::Vec3f>& pts) {
+  Triangulation3D k;
   k.setPoints(pts.data(), pts.size());
   const auto order = dw::builder3d::brioOrder(pts);
   k.build(order.data(), order.size());
@@ -53,7 +53,7 @@ std::vector<index_t> identity(std::size_t n) {
 void removeAndCompare(const std::vector<dw::Vec3f>& pts, std::size_t count, std::size_t hull_first,
                       std::size_t check_every, const char* what) {
   SCOPED_TRACE(what);
-  DelaunayKernel3D k = buildAll(pts);
+  Triangulation3D k = buildAll(pts);
   std::vector<char> live(pts.size(), 1);
   std::mt19937 rng(42);
   std::size_t removed = 0, hull_removed = 0;
@@ -113,7 +113,7 @@ TEST(VertexRemoval, BunnyScan) {
 TEST(VertexRemoval, DownToFourVertices) {
   // The last removals empty most of the hull; every intermediate structure must stay valid.
   const auto pts = b3d_test::uniformCube(40, 13);
-  DelaunayKernel3D k = buildAll(pts);
+  Triangulation3D k = buildAll(pts);
   std::vector<index_t> ids = identity(pts.size());
   std::shuffle(ids.begin(), ids.end(), std::mt19937(5));
   while (k.numVertices() > 4) {
@@ -133,7 +133,7 @@ TEST(VertexRemoval, FlatLinkOfAHullVertex) {
   auto pts = b3d_test::grid(5, 5, 3);
   pts.push_back({2.f, 2.f, 2.5f});
   const index_t apex = static_cast<index_t>(pts.size() - 1);
-  DelaunayKernel3D k = buildAll(pts);
+  Triangulation3D k = buildAll(pts);
   k.remove(apex);
   k.validate();
   EXPECT_EQ(edgesOf(k), freshEdges(pts, identity(pts.size() - 1), 2));
@@ -152,7 +152,7 @@ TEST(VertexRemoval, SlidingWindowEqualsFreshBuildEveryRound) {
         degenerate ? b3d_test::quantised(window + rounds * step + 400, 15, 0.08f) : all;
     ASSERT_GE(pts.size(), window + rounds * step);
     std::vector<dw::Vec3f> arr(pts.begin(), pts.begin() + window);
-    DelaunayKernel3D k;
+    Triangulation3D k;
     k.setPoints(arr.data(), arr.size());
     const auto order = dw::builder3d::brioOrder(arr);
     k.build(order.data(), order.size());
@@ -195,7 +195,7 @@ TEST(VertexRemoval, RandomInsertRemoveOnSmallDegenerateSets) {
            i < pts.size() && (ids.size() < 6 || !dw::builder3d::spans3D(pts.data(), ids.data(), ids.size()));
            ++i)
         ids.push_back(i);
-      DelaunayKernel3D k;
+      Triangulation3D k;
       k.setPoints(pts.data(), pts.size());
       k.build(ids.data(), ids.size());
       for (index_t i : ids) live[i] = 1;
@@ -230,13 +230,13 @@ TEST(VertexRemoval, RandomInsertRemoveOnSmallDegenerateSets) {
 }
 
 TEST(VertexRemoval, ErrorsLeaveTheStructureUnchanged) {
-  DelaunayKernel3D empty;
+  Triangulation3D empty;
   EXPECT_THROW(empty.remove(0), dw::Error);  // not built
 
   auto pts = b3d_test::uniformCube(300, 16);
   pts.push_back(pts[7]);                     // a duplicate of vertex 7, never inserted
   pts.push_back({0.123f, -0.456f, 0.789f});  // never inserted
-  DelaunayKernel3D k;
+  Triangulation3D k;
   k.setPoints(pts.data(), pts.size());
   std::vector<index_t> order = identity(pts.size() - 2);
   k.build(order.data(), order.size());
@@ -253,7 +253,7 @@ TEST(VertexRemoval, ErrorsLeaveTheStructureUnchanged) {
 
   // Four coplanar points and an apex: without the apex no 3D triangulation exists.
   const std::vector<dw::Vec3f> pyramid = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}, {0.4f, 0.3f, 1}};
-  DelaunayKernel3D p;
+  Triangulation3D p;
   p.setPoints(pyramid.data(), pyramid.size());
   order = identity(pyramid.size());
   p.build(order.data(), order.size());

@@ -72,7 +72,7 @@ void expectExactSearch(const dw::DelaunayGraph& graph, const DynamicDelaunayGrap
 void expectKernelEqualsFreshBuild(const DynamicDelaunayGraph& dyn, std::size_t round) {
   std::vector<dw::index_t> slots;
   for (Id id : dyn.liveIds()) slots.push_back(dyn.slotOf(id));
-  dw::builder3d::DelaunayKernel3D fresh;
+  dw::builder3d::Triangulation3D fresh;
   fresh.setPoints(dyn.slotPoints().data(), dyn.slotPoints().size());
   fresh.build(slots.data(), slots.size());
   ASSERT_EQ(b3d_test::kernelEdges(dyn.kernel()), b3d_test::kernelEdges(fresh)) << "round " << round;

@@ -16,7 +16,7 @@
 namespace dw {
 
 namespace builder3d {
-class DelaunayKernel3D;
+class Triangulation3D;
 }
 
 /// Owns a changing point set and its 3D Delaunay triangulation.
@@ -25,7 +25,7 @@ class DelaunayKernel3D;
 ///   vertex ids); a removed point's slot is recycled by a later insertion, so memory and the cost of
 ///   graph() follow the live set, not the whole history.
 /// - insert() adds the points to the triangulation (Bowyer-Watson), remove() deletes them
-///   (DelaunayKernel3D::remove). The triangulation always equals a fresh build of the live points with
+///   (Triangulation3D::remove). The triangulation always equals a fresh build of the live points with
 ///   the same slot ids, so graph() gives what buildDelaunayGraph gives for the live points: the same
 ///   edge set on input in general position; on cospherical ties both are valid Delaunay graphs (the
 ///   choice follows the ids) and the walk, kNN and radius search are exact on either.
@@ -78,13 +78,13 @@ class DynamicDelaunayGraph {
   /// buildDelaunayGraph while the points do not span 3D.
   DelaunayGraph graph(std::vector<PointId>* input_ids = nullptr, unsigned num_threads = 1) const;
 
-  /// Checks the triangulation (DelaunayKernel3D::validate) and the id bookkeeping; throws dw::Error.
+  /// Checks the triangulation (Triangulation3D::validate) and the id bookkeeping; throws dw::Error.
   void validate() const;
 
   /// For tests and diagnostics: the kernel, and a live point's slot (its vertex id in the kernel and
   /// the index of its float position in slotPoints()).
   /// (The kernel's type is internal: tests reach it through the private include directory.)
-  const builder3d::DelaunayKernel3D& kernel() const { return *kernel_; }
+  const builder3d::Triangulation3D& kernel() const { return *kernel_; }
   index_t slotOf(PointId id) const;
   const std::vector<Vec3f>& slotPoints() const { return points_; }
 
@@ -105,7 +105,7 @@ class DynamicDelaunayGraph {
   std::unordered_map<PointId, index_t> slot_of_;
   std::unordered_map<PositionKey, index_t, PositionHash> slot_at_;  // live positions, for duplicates
   PointId next_id_ = 0;
-  std::unique_ptr<builder3d::DelaunayKernel3D> kernel_;  // null only in a moved-from graph
+  std::unique_ptr<builder3d::Triangulation3D> kernel_;  // null only in a moved-from graph
   bool triangulated_ = false;
 };
 

@@ -1,4 +1,4 @@
-/// \file delaunay_kernel_3d.h
+/// \file triangulation_3d.h
 /// \brief Incremental 3D Delaunay triangulation (Bowyer-Watson) on flat structure-of-arrays storage,
 /// made for one purpose: producing the walk graph's edges (DESIGN.md §2, issue 8).
 ///
@@ -34,7 +34,7 @@ namespace builder3d {
 template <class T>
 using SlotArray = std::vector<T, UninitialisedAllocator<T>>;
 
-class DelaunayKernel3D {
+class Triangulation3D {
  public:
   static constexpr index_t kInfinite = 0xFFFFFFFFu;  ///< the vertex at infinity
   static constexpr index_t kDead = 0xFFFFFFFEu;      ///< first vertex slot of a recycled tetrahedron

@@ -10,20 +10,20 @@
 
 #include "core/util/parallel_sort.h"
 #include "builder3d_test_util.h"
-#include "core/builder3d/delaunay_kernel_3d.h"
+#include "core/builder3d/triangulation_3d.h"
 #include "core/builder3d/insertion_order.h"
 #include "core/util/space_filling_curve.h"
 
 namespace {
 
 using b3d_test::Edges;
-using dw::builder3d::DelaunayKernel3D;
+using dw::builder3d::Triangulation3D;
 
 using b3d_test::kernelEdges;
 
 Edges buildWithOrder(const std::vector<dw::Vec3f>& pts, const std::vector<dw::index_t>& order,
                      bool check = true) {
-  DelaunayKernel3D k;
+  Triangulation3D k;
   k.setPoints(pts.data(), pts.size());
   k.build(order.data(), order.size());
   if (check) k.validate();
@@ -97,9 +97,9 @@ TEST(InsertionOrder, AdaptiveSortSortsAnyInput) {
   }
 }
 
-TEST(DelaunayKernel3D, UniformIsValidAndEdgesAreUnique) {
+TEST(Triangulation3D, UniformIsValidAndEdgesAreUnique) {
   const auto pts = b3d_test::uniformCube(3000, 1);
-  DelaunayKernel3D k;
+  Triangulation3D k;
   k.setPoints(pts.data(), pts.size());
   const auto order = dw::builder3d::brioOrder(pts);
   k.build(order.data(), order.size());
@@ -113,9 +113,9 @@ TEST(DelaunayKernel3D, UniformIsValidAndEdgesAreUnique) {
   EXPECT_EQ(k.stats().fallback_locations, 0u);
 }
 
-TEST(DelaunayKernel3D, SameGraphForAnyThreadCount) {
+TEST(Triangulation3D, SameGraphForAnyThreadCount) {
   const auto pts = b3d_test::uniformCube(4000, 2);
-  DelaunayKernel3D k;
+  Triangulation3D k;
   k.setPoints(pts.data(), pts.size());
   const auto order = dw::builder3d::brioOrder(pts);
   k.build(order.data(), order.size());
@@ -123,7 +123,7 @@ TEST(DelaunayKernel3D, SameGraphForAnyThreadCount) {
   for (unsigned t : {2u, 3u, 8u}) EXPECT_EQ(b3d_test::normalise(kernelEdges(k, t)), one) << t << " threads";
 }
 
-TEST(DelaunayKernel3D, ReleasingExtractionGivesTheSameEdgesOnAnyThreadCount) {
+TEST(Triangulation3D, ReleasingExtractionGivesTheSameEdgesOnAnyThreadCount) {
   // releaseIntoEdgeChunks lists into the adjacency's storage when it is big enough and into a new
   // array when not (tiny inputs on many threads: most tetrahedra span several ranges and are listed
   // up to three times), and writes one list: on one thread appended range by range, on several each
@@ -132,7 +132,7 @@ TEST(DelaunayKernel3D, ReleasingExtractionGivesTheSameEdgesOnAnyThreadCount) {
   for (std::size_t n : {std::size_t(5), std::size_t(9), std::size_t(40), std::size_t(300), std::size_t(5000)})
     for (unsigned t : {1u, 2u, 16u}) {
       const auto pts = b3d_test::mortonSorted(b3d_test::uniformCube(n, 50 + static_cast<unsigned>(n)));
-      DelaunayKernel3D k;
+      Triangulation3D k;
       k.setPoints(pts.data(), pts.size());
       const auto order = dw::builder3d::brioOrder(pts);
       k.build(order.data(), order.size());
@@ -154,7 +154,7 @@ TEST(DelaunayKernel3D, ReleasingExtractionGivesTheSameEdgesOnAnyThreadCount) {
     }
 }
 
-TEST(DelaunayKernel3D, InsertionOrderDoesNotChangeTheGraph) {
+TEST(Triangulation3D, InsertionOrderDoesNotChangeTheGraph) {
   // With simulation of simplicity the perturbed Delaunay triangulation is unique, so even fully
   // degenerate input (a grid: all cells cospherical) gives the same edges whatever the order.
   for (const auto& pts : {b3d_test::uniformCube(1500, 3), b3d_test::grid(6, 5, 4)}) {
@@ -168,7 +168,7 @@ TEST(DelaunayKernel3D, InsertionOrderDoesNotChangeTheGraph) {
   }
 }
 
-TEST(DelaunayKernel3D, DegenerateInputsGiveValidTriangulations) {
+TEST(Triangulation3D, DegenerateInputsGiveValidTriangulations) {
   const std::vector<std::vector<dw::Vec3f>> sets = {
       b3d_test::grid(7, 7, 7),               // cospherical cells, coplanar faces
       b3d_test::latticeSphere(11 * 11 * 9),  // every point on one sphere
@@ -182,7 +182,7 @@ TEST(DelaunayKernel3D, DegenerateInputsGiveValidTriangulations) {
   }
 }
 
-TEST(DelaunayKernel3D, ACavityOfTheWholeBallLinksLikeAnyOther) {
+TEST(Triangulation3D, ACavityOfTheWholeBallLinksLikeAnyOther) {
   // The centre of a sphere inserted last destroys every tetrahedron: its cavity's boundary is the
   // hull, ~2n triangles, more directed edges than the link table's first size holds, so the table
   // grows during that insertion. The result must be valid and the same as with the centre first.
@@ -204,12 +204,12 @@ TEST(DelaunayKernel3D, ACavityOfTheWholeBallLinksLikeAnyOther) {
             static_cast<std::ptrdiff_t>(n));
 }
 
-TEST(DelaunayKernel3D, IncrementalInsertionEqualsFreshBuild) {
+TEST(Triangulation3D, IncrementalInsertionEqualsFreshBuild) {
   for (const auto& pts : {b3d_test::uniformCube(3000, 5), b3d_test::grid(8, 6, 5)}) {
     const std::size_t half = pts.size() / 2;
     // The reference cloud grows: the first half exists first, the array grows, the rest arrives.
     std::vector<dw::Vec3f> growing(pts.begin(), pts.begin() + half);
-    DelaunayKernel3D k;
+    Triangulation3D k;
     k.setPoints(growing.data(), growing.size());
     const auto order = dw::builder3d::brioOrder(growing);
     k.build(order.data(), order.size());
@@ -222,8 +222,8 @@ TEST(DelaunayKernel3D, IncrementalInsertionEqualsFreshBuild) {
   }
 }
 
-TEST(DelaunayKernel3D, InputsOutsideTheContractThrow) {
-  DelaunayKernel3D k;
+TEST(Triangulation3D, InputsOutsideTheContractThrow) {
+  Triangulation3D k;
   const auto flat = b3d_test::grid(5, 5, 1);
   k.setPoints(flat.data(), flat.size());
   auto o = identity(flat.size());
@@ -249,7 +249,7 @@ TEST(DelaunayKernel3D, InputsOutsideTheContractThrow) {
   o.push_back(static_cast<dw::index_t>(pts.size() + 5));  // out of range
   EXPECT_THROW(k.build(o.data(), o.size()), dw::Error);
 
-  DelaunayKernel3D fresh;
+  Triangulation3D fresh;
   EXPECT_THROW(fresh.insert(0), dw::Error);  // not built
 }
 

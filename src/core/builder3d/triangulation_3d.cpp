@@ -1,5 +1,5 @@
-// Incremental Bowyer-Watson on flat arrays. See delaunay_kernel_3d.h for the representation.
-#include "delaunay_kernel_3d.h"
+// Incremental Bowyer-Watson on flat arrays. See triangulation_3d.h for the representation.
+#include "triangulation_3d.h"
 
 #include <algorithm>
 #include <array>
@@ -91,17 +91,17 @@ constexpr FaceLinkTable kFaceLinks = makeFaceLinks();
 
 }  // namespace
 
-void DelaunayKernel3D::setPoints(const Vec3f* points, std::size_t n) {
+void Triangulation3D::setPoints(const Vec3f* points, std::size_t n) {
   if (n > kMaxVertices)
-    throw Error("dw::DelaunayKernel3D: " + std::to_string(n) + " points exceed the kernel's limit of " +
+    throw Error("dw::Triangulation3D: " + std::to_string(n) + " points exceed the kernel's limit of " +
                 std::to_string(kMaxVertices));
-  if (n > 0 && points == nullptr) throw Error("dw::DelaunayKernel3D: null point array");
+  if (n > 0 && points == nullptr) throw Error("dw::Triangulation3D: null point array");
   points_ = points;
   num_points_ = n;
   if (vertex_tet_.size() < n) vertex_tet_.resize(n, kNoVertexTet);
 }
 
-void DelaunayKernel3D::reserveSlots(std::size_t slots) {
+void Triangulation3D::reserveSlots(std::size_t slots) {
   tet_v_.reserve(4 * slots);
   // A quarter more address space for the adjacency: its storage becomes the edge extraction's lists
   // (listByRange's donor), which hold each tetrahedron once per range of its three smallest ids, ~1.1
@@ -112,21 +112,21 @@ void DelaunayKernel3D::reserveSlots(std::size_t slots) {
   mark_.reserve(slots);
 }
 
-index_t DelaunayKernel3D::newTet() {
+index_t Triangulation3D::newTet() {
   ensureFreeSlots(1);
   const index_t t = free_.back();
   free_.pop_back();
   return t;
 }
 
-void DelaunayKernel3D::ensureFreeSlots(std::size_t count) {
+void Triangulation3D::ensureFreeSlots(std::size_t count) {
   while (free_.size() < count) {
     // Grown kNewTetBatch slots at a time, which go on the free list lowest on top (so they are taken
     // in order): one slot at a time, the three arrays' resizes cost 3 % of a build's instructions.
     constexpr std::size_t kNewTetBatch = 64;
     const std::size_t t = tet_v_.size() / 4;
     if (t + kNewTetBatch > (std::size_t(1) << 30))
-      throw Error("dw::DelaunayKernel3D: more than 2^30 tetrahedra (neighbour codes are 32-bit)");
+      throw Error("dw::Triangulation3D: more than 2^30 tetrahedra (neighbour codes are 32-bit)");
     // Grow by a quarter rather than doubling: the arrays are most of the peak memory.
     if (4 * (t + kNewTetBatch) > tet_v_.capacity()) reserveSlots(t + t / 4 + kNewTetBatch);
     resizeSlots(t + kNewTetBatch);
@@ -135,7 +135,7 @@ void DelaunayKernel3D::ensureFreeSlots(std::size_t count) {
   }
 }
 
-void DelaunayKernel3D::initialTetrahedron(index_t a, index_t b, index_t c, index_t d) {
+void Triangulation3D::initialTetrahedron(index_t a, index_t b, index_t c, index_t d) {
   double pa[3], pb[3], pc[3], pd[3];
   point(a, pa);
   point(b, pb);
@@ -169,26 +169,26 @@ void DelaunayKernel3D::initialTetrahedron(index_t a, index_t b, index_t c, index
   last_tet_ = 0;
 }
 
-void DelaunayKernel3D::build(const index_t* order, std::size_t n,
+void Triangulation3D::build(const index_t* order, std::size_t n,
                              const std::function<void(double)>& progress) {
   build(order, n, progress, {}, 1);
 }
 
-void DelaunayKernel3D::build(const index_t* order, std::size_t n, const std::function<void(double)>& progress,
+void Triangulation3D::build(const index_t* order, std::size_t n, const std::function<void(double)>& progress,
                              const std::vector<std::size_t>& batch_begin, unsigned num_threads) {
   buildBatches(order, n, progress, batch_begin, num_threads, nullptr);
 }
 
-void DelaunayKernel3D::build(std::vector<index_t>&& order, const std::function<void(double)>& progress,
+void Triangulation3D::build(std::vector<index_t>&& order, const std::function<void(double)>& progress,
                              const std::vector<std::size_t>& batch_begin, unsigned num_threads) {
   buildBatches(order.data(), order.size(), progress, batch_begin, num_threads, &order);
 }
 
-void DelaunayKernel3D::buildBatches(const index_t* order, std::size_t n,
+void Triangulation3D::buildBatches(const index_t* order, std::size_t n,
                                     const std::function<void(double)>& progress,
                                     const std::vector<std::size_t>& batch_begin, unsigned num_threads,
                                     std::vector<index_t>* owned) {
-  if (points_ == nullptr && n > 0) throw Error("dw::DelaunayKernel3D::build: setPoints() was not called");
+  if (points_ == nullptr && n > 0) throw Error("dw::Triangulation3D::build: setPoints() was not called");
   tet_v_.clear();
   tet_n_.clear();
   mark_.clear();
@@ -197,19 +197,19 @@ void DelaunayKernel3D::buildBatches(const index_t* order, std::size_t n,
   num_inserted_ = 0;
   stats_ = Stats{};
   seq_ = Worker{};
-  if (n < 4) throw Error("dw::DelaunayKernel3D::build: a 3D triangulation needs at least 4 points");
+  if (n < 4) throw Error("dw::Triangulation3D::build: a 3D triangulation needs at least 4 points");
   for (std::size_t i = 0; i < n; ++i)
-    if (order[i] >= num_points_) throw Error("dw::DelaunayKernel3D::build: vertex id out of range");
+    if (order[i] >= num_points_) throw Error("dw::Triangulation3D::build: vertex id out of range");
 
   // The first tetrahedron: order[0], order[1] (distinct by contract), then the first point off
   // their line, then the first point off their plane.
   if (points_[order[0]].x == points_[order[1]].x && points_[order[0]].y == points_[order[1]].y &&
       points_[order[0]].z == points_[order[1]].z)
-    throw Error("dw::DelaunayKernel3D::build: duplicate points (the input must be distinct)");
+    throw Error("dw::Triangulation3D::build: duplicate points (the input must be distinct)");
   std::size_t first[4];
   const int dim = affineSpan(points_, order, n, first);
-  if (dim < 2) throw Error("dw::DelaunayKernel3D::build: all points are collinear (not a 3D set)");
-  if (dim < 3) throw Error("dw::DelaunayKernel3D::build: all points are coplanar (not a 3D set)");
+  if (dim < 2) throw Error("dw::Triangulation3D::build: all points are collinear (not a 3D set)");
+  if (dim < 3) throw Error("dw::Triangulation3D::build: all points are coplanar (not a 3D set)");
   const std::size_t kc = first[2], kd = first[3];  // first[1] is 1: order[1] differs from order[0]
 
   // ~6.75 per vertex on volumetric input, more on surfaces and with recycled slots; reserving 8 avoids
@@ -250,7 +250,7 @@ void DelaunayKernel3D::buildBatches(const index_t* order, std::size_t n,
   if (progress) progress(1.0);
 }
 
-void DelaunayKernel3D::Stats::add(const Stats& o) {
+void Triangulation3D::Stats::add(const Stats& o) {
   walk_steps += o.walk_steps;
   conflict_tests += o.conflict_tests;
   created_tets += o.created_tets;
@@ -267,7 +267,7 @@ void DelaunayKernel3D::Stats::add(const Stats& o) {
 }
 
 // The sequential insertion owns everything: no ownership checks, plain memory accesses.
-struct DelaunayKernel3D::Everything {
+struct Triangulation3D::Everything {
   static constexpr bool kShared = false;
   bool ownsVertex(index_t) const { return true; }
 };
@@ -285,7 +285,7 @@ struct DelaunayKernel3D::Everything {
 // small integer components, so a float point's coordinate along one (three exact products summed in
 // double in a fixed order) is the same wherever it is computed, with or without fused multiply-adds:
 // every call site agrees on who owns a vertex.
-struct DelaunayKernel3D::CellSplit {
+struct Triangulation3D::CellSplit {
   struct Node {
     int direction;
     double split;
@@ -394,7 +394,7 @@ struct DelaunayKernel3D::CellSplit {
 // exceptions are a walk's start, a tetrahedron found through vertex_tet_ (ownsTet, startAtVertex),
 // which may be another thread's: those reads, and every write of a vertex slot or of vertex_tet_ that
 // they may meet, are relaxed atomics (plain moves on x86, but defined behaviour and TSan-clean).
-struct DelaunayKernel3D::Cell {
+struct Triangulation3D::Cell {
   static constexpr bool kShared = true;
   const CellSplit* split = nullptr;
   const Vec3f* points = nullptr;
@@ -431,8 +431,8 @@ inline bool hasInfiniteVertex(const index_t* tv) {
   const __m128i ids = _mm_loadu_si128(reinterpret_cast<const __m128i*>(tv));
   return _mm_movemask_epi8(_mm_cmpeq_epi32(ids, _mm_set1_epi32(-1))) != 0;
 #else
-  return tv[0] == DelaunayKernel3D::kInfinite || tv[1] == DelaunayKernel3D::kInfinite ||
-         tv[2] == DelaunayKernel3D::kInfinite || tv[3] == DelaunayKernel3D::kInfinite;
+  return tv[0] == Triangulation3D::kInfinite || tv[1] == Triangulation3D::kInfinite ||
+         tv[2] == Triangulation3D::kInfinite || tv[3] == Triangulation3D::kInfinite;
 #endif
 }
 
@@ -457,7 +457,7 @@ constexpr std::size_t kSplitSample = 1 << 15;
 }  // namespace
 
 template <class Owner>
-bool DelaunayKernel3D::ownsTet(index_t t, const Owner& own) const {
+bool Triangulation3D::ownsTet(index_t t, const Owner& own) const {
   if constexpr (!Owner::kShared) {
     return true;
   } else {
@@ -467,12 +467,12 @@ bool DelaunayKernel3D::ownsTet(index_t t, const Owner& own) const {
   }
 }
 
-index_t DelaunayKernel3D::locate(index_t v, index_t start) {
+index_t Triangulation3D::locate(index_t v, index_t start) {
   return locateInline<false>(v, start);
 }
 
 template <bool kStopInConflict>
-index_t DelaunayKernel3D::locateInline(index_t v, index_t start) {
+index_t Triangulation3D::locateInline(index_t v, index_t start) {
   double p[3];
   point(v, p);
   index_t t = start;
@@ -494,7 +494,7 @@ index_t DelaunayKernel3D::locateInline(index_t v, index_t start) {
 }
 
 template <bool kStopInConflict, class Owner>
-index_t DelaunayKernel3D::walkTo(const double* p, index_t t, Worker& w, const Owner& own,
+index_t Triangulation3D::walkTo(const double* p, index_t t, Worker& w, const Owner& own,
                                  std::uint64_t guard) const {
   // With a sharing owner: only through owned tetrahedra (stable under this thread). A walk that would
   // leave them ends at a point whose cavity would not be owned either, almost always, so the caller
@@ -546,21 +546,21 @@ index_t DelaunayKernel3D::walkTo(const double* p, index_t t, Worker& w, const Ow
   return kNoTet;
 }
 
-index_t DelaunayKernel3D::locateByScan(index_t v) const {
+index_t Triangulation3D::locateByScan(index_t v) const {
   const std::size_t nt = tet_v_.size() / 4;
   double p[3];
   point(v, p);
   const predicates::BroadcastPoint query(p);
   for (index_t t = 0; t < nt; ++t)
     if (tet_v_[4 * std::size_t(t)] != kDead && inConflict(t, v, query)) return t;
-  throw Error("dw::DelaunayKernel3D: no tetrahedron conflicts with vertex " + std::to_string(v) +
+  throw Error("dw::Triangulation3D: no tetrahedron conflicts with vertex " + std::to_string(v) +
               " (duplicate point or corrupted triangulation)");
 }
 
 // Both conflict tests are inlined into the cavity search, which runs ~43 per inserted point: the
 // finite case first, since the infinite tetrahedra are a sliver of the mesh; the simulated-simplicity
 // tie and the hull's test stay out of line.
-[[gnu::always_inline]] inline bool DelaunayKernel3D::finiteInConflict(
+[[gnu::always_inline]] inline bool Triangulation3D::finiteInConflict(
     index_t t, index_t v, const predicates::BroadcastPoint& e) const {
   const index_t* tv = &tet_v_[4 * std::size_t(t)];
   const Vec3f &a = points_[tv[0]], &b = points_[tv[1]], &c = points_[tv[2]], &d = points_[tv[3]];
@@ -576,13 +576,13 @@ index_t DelaunayKernel3D::locateByScan(index_t v) const {
   return predicates::insphereSoS(pa, pb, pc, pd, e.p, tv[0], tv[1], tv[2], tv[3], v) > 0;
 }
 
-[[gnu::always_inline]] inline bool DelaunayKernel3D::inConflict(index_t t, index_t v,
+[[gnu::always_inline]] inline bool Triangulation3D::inConflict(index_t t, index_t v,
                                                                 const predicates::BroadcastPoint& p) const {
   if (__builtin_expect(!hasInfiniteVertex(&tet_v_[4 * std::size_t(t)]), 1)) return finiteInConflict(t, v, p);
   return infiniteInConflict(t, v, p);
 }
 
-bool DelaunayKernel3D::infiniteInConflict(index_t t, index_t v,
+bool Triangulation3D::infiniteInConflict(index_t t, index_t v,
                                           const predicates::BroadcastPoint& query) const {
   const double* p = query.p;
   const index_t* tv = &tet_v_[4 * std::size_t(t)];
@@ -607,13 +607,13 @@ bool DelaunayKernel3D::infiniteInConflict(index_t t, index_t v,
   return finiteInConflict(tet_n_[4 * std::size_t(t) + k] >> 2, v, query);
 }
 
-void DelaunayKernel3D::sizeSlotsUnwritten(std::size_t slots) {
+void Triangulation3D::sizeSlotsUnwritten(std::size_t slots) {
   tet_v_.resize(4 * slots);
   tet_n_.resize(4 * slots);
   mark_.resize(slots);
 }
 
-void DelaunayKernel3D::resizeSlots(std::size_t slots) {
+void Triangulation3D::resizeSlots(std::size_t slots) {
   const std::size_t old = tet_v_.size() / 4;
   sizeSlotsUnwritten(slots);
   // No other thread runs here (the sequential insertion, or between passes): plain fills, which the
@@ -626,7 +626,7 @@ void DelaunayKernel3D::resizeSlots(std::size_t slots) {
   }
 }
 
-void DelaunayKernel3D::clearSlot(std::size_t t) {
+void Triangulation3D::clearSlot(std::size_t t) {
   for (unsigned j = 0; j < 4; ++j) {  // atomic like every write another thread may read
     store<true>(tet_v_[4 * t + j], kDead);
     store<true>(tet_n_[4 * t + j], 0);
@@ -634,7 +634,7 @@ void DelaunayKernel3D::clearSlot(std::size_t t) {
   mark_[t] = Mark::kUnknown;
 }
 
-bool DelaunayKernel3D::takeSlots(Worker& w, std::size_t count) {
+bool Triangulation3D::takeSlots(Worker& w, std::size_t count) {
   // The pass's slot pool is the recycled slots (pool_, sorted) followed by the fresh range
   // [fresh_begin_, fresh_end_); threads take it in chunks as they need it.
   const std::size_t recycled = pool_.size(), total = recycled + (fresh_end_ - fresh_begin_);
@@ -658,18 +658,18 @@ bool DelaunayKernel3D::takeSlots(Worker& w, std::size_t count) {
 }
 
 template <bool kShared>
-index_t DelaunayKernel3D::vertexTet(index_t u) const {
+index_t Triangulation3D::vertexTet(index_t u) const {
   return u < num_points_ ? load<kShared>(vertex_tet_[u]) : kNoVertexTet;  // also catches v - j wrapping
 }
 
 template <class Owner>
-index_t DelaunayKernel3D::startAtVertex(index_t u, const Owner& own) const {
+index_t Triangulation3D::startAtVertex(index_t u, const Owner& own) const {
   const index_t s = vertexTet<Owner::kShared>(u);
   return startHolds(s, u, own) ? s : kNoTet;
 }
 
 template <class Owner>
-bool DelaunayKernel3D::startHolds(index_t s, index_t u, const Owner& own) const {
+bool Triangulation3D::startHolds(index_t s, index_t u, const Owner& own) const {
   if (s >= kNoVertexTet) return false;  // not inserted yet
   if constexpr (Owner::kShared) {
     // Only a tetrahedron this thread owns, and one that still holds u (vertex removal may leave
@@ -683,7 +683,7 @@ bool DelaunayKernel3D::startHolds(index_t s, index_t u, const Owner& own) const 
 }
 
 template <class Owner>
-index_t DelaunayKernel3D::walkStart(index_t v, const double* p, const Worker& w, const Owner& own) const {
+index_t Triangulation3D::walkStart(index_t v, const double* p, const Worker& w, const Owner& own) const {
   // The last insertion's tetrahedron, or one holding a vertex whose id is next to v's, whichever
   // vertex is nearer to v. Ids follow a space-filling curve (buildDelaunayGraph), and in a BRIO round
   // the last insertion lies about the round's spacing away, an inserted id neighbour about the whole
@@ -711,7 +711,7 @@ index_t DelaunayKernel3D::walkStart(index_t v, const double* p, const Worker& w,
 }
 
 template <class Owner>
-bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
+bool Triangulation3D::insertCore(index_t v, Worker& w, const Owner& own) {
   constexpr bool kShared = Owner::kShared;
   double p[3];
   point(v, p);
@@ -742,7 +742,7 @@ bool DelaunayKernel3D::insertCore(index_t v, Worker& w, const Owner& own) {
       if (tv[k] == kInfinite) continue;
       const Vec3f& q = points_[tv[k]];
       if (q.x == pv.x && q.y == pv.y && q.z == pv.z)
-        throw Error("dw::DelaunayKernel3D::insert: vertex " + std::to_string(v) + " duplicates vertex " +
+        throw Error("dw::Triangulation3D::insert: vertex " + std::to_string(v) + " duplicates vertex " +
                     std::to_string(tv[k]));
     }
   }
@@ -952,23 +952,23 @@ const bool kCpuHasX86_64V3 = detail::cpuHasX86_64V3();
 // The two compiled versions of the insertion (see DW_TARGET_V3): insertCore, locateInline, walkTo and
 // writeNewTetrahedra are always inlined, so each wrapper holds a whole insertion built for its target.
 template <class Owner>
-bool DelaunayKernel3D::insertCoreBaseline(index_t v, Worker& w, const Owner& own) {
+bool Triangulation3D::insertCoreBaseline(index_t v, Worker& w, const Owner& own) {
   return insertCore(v, w, own);
 }
 
 template <class Owner>
-DW_TARGET_V3 bool DelaunayKernel3D::insertCoreV3(index_t v, Worker& w, const Owner& own) {
+DW_TARGET_V3 bool Triangulation3D::insertCoreV3(index_t v, Worker& w, const Owner& own) {
   return insertCore(v, w, own);
 }
 
 template <class Owner>
-bool DelaunayKernel3D::insertOnThisCpu(index_t v, Worker& w, const Owner& own) {
+bool Triangulation3D::insertOnThisCpu(index_t v, Worker& w, const Owner& own) {
   return kCpuHasX86_64V3 ? insertCoreV3(v, w, own) : insertCoreBaseline(v, w, own);
 }
 
-void DelaunayKernel3D::insert(index_t v) {
-  if (!built()) throw Error("dw::DelaunayKernel3D::insert: build() first");
-  if (v >= num_points_) throw Error("dw::DelaunayKernel3D::insert: vertex id out of range");
+void Triangulation3D::insert(index_t v) {
+  if (!built()) throw Error("dw::Triangulation3D::insert: build() first");
+  if (v >= num_points_) throw Error("dw::Triangulation3D::insert: vertex id out of range");
   seq_.last_tet = last_tet_;
   seq_.stats = Stats{};
   insertOnThisCpu(v, seq_, Everything{});
@@ -977,7 +977,7 @@ void DelaunayKernel3D::insert(index_t v) {
 }
 
 template <bool kShared>
-void DelaunayKernel3D::writeNewTetrahedra(Worker& w) {
+void Triangulation3D::writeNewTetrahedra(Worker& w) {
   // Each new tetrahedron is written whole where its face is read, in the loop that enters the face's
   // edges (as a loop of its own, one more pass over the boundary: 0.3 % of a build's instructions).
   // The boundary is a closed triangulated surface: each of its edges (x, y) lies in exactly two
@@ -1045,21 +1045,21 @@ void DelaunayKernel3D::writeNewTetrahedra(Worker& w) {
     const std::uint64_t twin = edge_key[e] << 32 | edge_key[e] >> 32;  // y -> x
     std::size_t h = hashKey(twin, bits);
     for (std::size_t probes = 0; keys[h] != twin; h = (h + 1) & mask)
-      if (++probes > mask) throw Error("dw::DelaunayKernel3D: the cavity's boundary is not closed");
+      if (++probes > mask) throw Error("dw::Triangulation3D: the cavity's boundary is not closed");
     tet_n[edge_code[e]] = codes[h];
     keys[h] = kLinkTombstone;
   }
 }
 
-void DelaunayKernel3D::insertParallel(const index_t* ids, std::size_t m, unsigned num_threads) {
-  if (!built()) throw Error("dw::DelaunayKernel3D::insertParallel: build() first");
-  if (track_births_) throw Error("dw::DelaunayKernel3D::insertParallel: not with trackBirths(true)");
+void Triangulation3D::insertParallel(const index_t* ids, std::size_t m, unsigned num_threads) {
+  if (!built()) throw Error("dw::Triangulation3D::insertParallel: build() first");
+  if (track_births_) throw Error("dw::Triangulation3D::insertParallel: not with trackBirths(true)");
   for (std::size_t i = 0; i < m; ++i)
-    if (ids[i] >= num_points_) throw Error("dw::DelaunayKernel3D::insertParallel: vertex id out of range");
+    if (ids[i] >= num_points_) throw Error("dw::Triangulation3D::insertParallel: vertex id out of range");
   insertBatch(std::vector<index_t>(ids, ids + m), num_threads);
 }
 
-void DelaunayKernel3D::insertBatch(std::vector<index_t> pending, unsigned num_threads) {
+void Triangulation3D::insertBatch(std::vector<index_t> pending, unsigned num_threads) {
   const std::size_t m = pending.size();
   detail::sortAdaptive(pending);
   // Small batches use fewer threads (min_points_per_thread_, see the header); two threads already
@@ -1102,7 +1102,7 @@ void DelaunayKernel3D::insertBatch(std::vector<index_t> pending, unsigned num_th
         std::chrono::duration<double>(std::chrono::steady_clock::now() - rest_start).count();
 }
 
-void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned threads, unsigned pass) {
+void Triangulation3D::runParallelPass(std::vector<index_t>& pending, unsigned threads, unsigned pass) {
   const auto start = std::chrono::steady_clock::now();
   CellSplit split;
   {
@@ -1294,7 +1294,7 @@ void DelaunayKernel3D::runParallelPass(std::vector<index_t>& pending, unsigned t
 // tetrahedron instead of 4, so the tetrahedra's pages go back as they are listed (below).
 // No thread writes what another writes: each worker fills its own part of the lists' array (a global
 // count per vertex needed locked adds).
-struct DelaunayKernel3D::RangeLists {
+struct Triangulation3D::RangeLists {
   std::size_t first = 0, last = 0;
   unsigned width_bits = 0;  // ranges are 2^width_bits ids wide (a shift, not a 64-bit division)
   std::size_t num_ranges = 0;
@@ -1314,16 +1314,16 @@ struct DelaunayKernel3D::RangeLists {
   std::size_t list(unsigned w, std::size_t r) const { return std::size_t(w) * num_ranges + r; }
 };
 
-DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgeChunks(unsigned num_threads) const {
+Triangulation3D::EdgeChunks Triangulation3D::edgeChunks(unsigned num_threads) const {
   return edgesOfRanges(listByRange(tet_v_, num_points_, num_threads, 0, num_points_), num_threads);
 }
 
-std::vector<std::pair<index_t, index_t>> DelaunayKernel3D::edgesFrom(std::size_t first,
+std::vector<std::pair<index_t, index_t>> Triangulation3D::edgesFrom(std::size_t first,
                                                                      std::size_t last) const {
   return joinChunks(edgesOfRanges(listByRange(tet_v_, num_points_, 1, first, last), 1));
 }
 
-std::vector<std::pair<index_t, index_t>> DelaunayKernel3D::joinChunks(EdgeChunks&& chunks) {
+std::vector<std::pair<index_t, index_t>> Triangulation3D::joinChunks(EdgeChunks&& chunks) {
   if (chunks.size() == 1) return std::move(chunks[0]);
   // Several chunks come only from extractions without an edge bound (edgesFrom, edgeChunks), whose
   // callers join them on one thread: appended chunk by chunk, each freed once copied, so the peak
@@ -1339,7 +1339,7 @@ std::vector<std::pair<index_t, index_t>> DelaunayKernel3D::joinChunks(EdgeChunks
   return out;
 }
 
-std::vector<index_t> DelaunayKernel3D::hullVertices() const {
+std::vector<index_t> Triangulation3D::hullVertices() const {
   std::vector<index_t> out;
   const std::size_t nt = tet_v_.size() / 4;
   for (std::size_t t = 0; t < nt; ++t) {
@@ -1354,7 +1354,7 @@ std::vector<index_t> DelaunayKernel3D::hullVertices() const {
   return out;
 }
 
-DelaunayKernel3D::EdgeChunks DelaunayKernel3D::releaseIntoEdgeChunks(unsigned num_threads) {
+Triangulation3D::EdgeChunks Triangulation3D::releaseIntoEdgeChunks(unsigned num_threads) {
   // Only the vertex quadruples are needed from here on: free the rest before the edges are made,
   // pages first. A plain free left them resident whenever malloc had placed the arrays in its heap
   // rather than in a mapping of their own (after an earlier build had raised glibc's mmap threshold,
@@ -1379,13 +1379,13 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::releaseIntoEdgeChunks(unsigned nu
   return edgesOfRanges(std::move(lists), num_threads, edge_bound);
 }
 
-DelaunayKernel3D::RangeLists DelaunayKernel3D::listByRange(const SlotArray<index_t>& tet_v_, std::size_t n,
+Triangulation3D::RangeLists Triangulation3D::listByRange(const SlotArray<index_t>& tet_v_, std::size_t n,
                                                            unsigned num_threads, std::size_t first,
                                                            std::size_t last, SlotArray<index_t>* give_back,
                                                            SlotArray<index_t>* donor) {
   if (num_threads == 0) num_threads = 1;
   if (give_back != nullptr && give_back != &tet_v_)
-    throw Error("dw::DelaunayKernel3D::listByRange: give_back must be the listed array");
+    throw Error("dw::Triangulation3D::listByRange: give_back must be the listed array");
   RangeLists out;
   last = std::min(last, n);
   if (tet_v_.empty() || first >= last) return out;
@@ -1506,7 +1506,7 @@ DelaunayKernel3D::RangeLists DelaunayKernel3D::listByRange(const SlotArray<index
   return out;
 }
 
-DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgesOfRanges(RangeLists&& in, unsigned num_threads,
+Triangulation3D::EdgeChunks Triangulation3D::edgesOfRanges(RangeLists&& in, unsigned num_threads,
                                                              std::size_t edge_bound) {
   if (num_threads == 0) num_threads = 1;
   EdgeChunks chunks;
@@ -1652,7 +1652,7 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgesOfRanges(RangeLists&& in, un
         const std::size_t start = startOf(r);
         if (start == kFailed) return;  // an earlier range failed: its error is passed on
         if (start + distinct > edge_bound)
-          throw Error("dw::DelaunayKernel3D: more edges than Euler's bound (a corrupted triangulation)");
+          throw Error("dw::Triangulation3D: more edges than Euler's bound (a corrupted triangulation)");
         end_of[r].store(start + distinct, std::memory_order_release);
         on_failure.slot = nullptr;
         out = list.data() + start;
@@ -1673,10 +1673,10 @@ DelaunayKernel3D::EdgeChunks DelaunayKernel3D::edgesOfRanges(RangeLists&& in, un
   return chunks;
 }
 
-void DelaunayKernel3D::validate() const {
+void Triangulation3D::validate() const {
   const std::size_t nt = tet_v_.size() / 4;
   auto fail = [](index_t t, const std::string& what) {
-    throw Error("dw::DelaunayKernel3D::validate: tetrahedron " + std::to_string(t) + ": " + what);
+    throw Error("dw::Triangulation3D::validate: tetrahedron " + std::to_string(t) + ": " + what);
   };
   std::vector<char> present(num_points_, 0);
   std::size_t live = 0;
@@ -1733,12 +1733,12 @@ void DelaunayKernel3D::validate() const {
   std::size_t missing = 0;
   for (char c : present) missing += c == 0;
   if (num_points_ - missing != num_inserted_)
-    throw Error("dw::DelaunayKernel3D::validate: " + std::to_string(num_points_ - missing) +
+    throw Error("dw::Triangulation3D::validate: " + std::to_string(num_points_ - missing) +
                 " vertices in tetrahedra, " + std::to_string(num_inserted_) + " inserted");
-  if (live != numLiveTetrahedra()) throw Error("dw::DelaunayKernel3D::validate: free list out of sync");
+  if (live != numLiveTetrahedra()) throw Error("dw::Triangulation3D::validate: free list out of sync");
 }
 
-std::size_t DelaunayKernel3D::memoryBytes() const {
+std::size_t Triangulation3D::memoryBytes() const {
   // Every scratch list of the sequential worker too.
   return (tet_v_.capacity() + tet_n_.capacity() + birth_.capacity() + vertex_tet_.capacity() +
           seq_.made.capacity() + seq_.link_codes.capacity() + seq_.edge_codes.capacity() +
