@@ -3,6 +3,32 @@ execute_process(COMMAND ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${PREFI
 if(NOT r EQUAL 0)
   message(FATAL_ERROR "install failed: ${r}")
 endif()
+# Only public headers are installed: none of the private ones (src/**/*.h), and every installed header
+# includes only installed headers or system/third-party ones.
+file(GLOB_RECURSE _installed RELATIVE ${PREFIX}/include ${PREFIX}/include/pcl_delaunay_walk/*.h
+  ${PREFIX}/include/pcl_delaunay_walk/*.hpp)
+file(GLOB_RECURSE _private RELATIVE ${SOURCE_DIR}/src ${SOURCE_DIR}/src/*.h)
+foreach(h ${_private})
+  get_filename_component(_name ${h} NAME)
+  foreach(i ${_installed})
+    get_filename_component(_iname ${i} NAME)
+    if(_iname STREQUAL _name)
+      message(FATAL_ERROR "private header ${h} is installed as ${i}")
+    endif()
+  endforeach()
+endforeach()
+foreach(i ${_installed})
+  file(STRINGS ${PREFIX}/include/${i} _incs REGEX "^#include \"")
+  foreach(line ${_incs})
+    string(REGEX REPLACE "^#include \"([^\"]+)\".*" "\\1" _inc "${line}")
+    if(NOT EXISTS ${PREFIX}/include/${_inc})
+      message(FATAL_ERROR "installed ${i} includes ${_inc}, which is not installed")
+    endif()
+  endforeach()
+endforeach()
+list(LENGTH _installed _n)
+message(STATUS "${_n} public headers installed, no private one")
+
 execute_process(COMMAND ${CMAKE_COMMAND} -S ${CLIENT_SRC} -B ${CLIENT_BUILD} -DCMAKE_PREFIX_PATH=${PREFIX}
   -DCLIENT_WITH_PCL=${WITH_PCL} RESULT_VARIABLE r)
 if(NOT r EQUAL 0)
