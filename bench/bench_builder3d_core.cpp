@@ -1,4 +1,4 @@
-// 3D Delaunay graph builders side by side (issue 8): the incremental kernel (1..N threads), Qhull
+// 3D Delaunay graph builders side by side: the incremental kernel (1..N threads), Qhull
 // (dw::qhullDelaunayEdges) and CGAL's Delaunay_triangulation_3 (benchmark-only peer) on the same
 // Morton-ordered distinct float points the graph builder hands over. Counters: points per second,
 // peak bytes per point the build adds (measured in a forked child), distinct edges per point, and for
@@ -241,7 +241,7 @@ void registerAll() {
   std::vector<std::string> names{"uniform_100k", "uniform_1M", "dragon_437k"};
   if (big) names.push_back("uniform_4M");
   for (const std::string& name : names) {
-    // 1 and 2 threads (the issue's 1 -> 2 ratio, also on a 2-core machine), then doubling up to all.
+    // 1 and 2 threads (the 1 -> 2 ratio, measurable on a 2-core machine too), then doubling up to all.
     std::vector<unsigned> threads{1, 2};
     for (unsigned t = 4; t < hw; t *= 2) threads.push_back(t);
     if (hw > 2) threads.push_back(hw);

@@ -1,4 +1,4 @@
-// Sliding-window maps (issue 8): keeping the walk graph of a window up to date by vertex removal and
+// Sliding-window maps: keeping the walk graph of a window up to date by vertex removal and
 // insertion (dw::DynamicDelaunayGraph) against rebuilding it (buildDelaunayGraph, incremental builder).
 // One thread throughout; times are thread CPU time. Each "slide" drops the oldest 10 % (or 1 %) of the window
 // and adds as many new points.

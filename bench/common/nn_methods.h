@@ -158,7 +158,7 @@ class PclOctreeNn : public NnMethod {
     const double n = std::max<double>(1.0, cloud_->size());
     // Surface-like clouds: spacing ~ sqrt(area / n), with the bbox diagonal squared for the area. The
     // factor (2) can be swept with DW_BENCH_OCTREE_FACTOR: the best differs by data set
-    // (docs/benchmarks.md, Session 12).
+    // (docs/benchmarks.md, "Nearest-neighbour search").
     double diag = 0;
     {
       Eigen::Vector4f lo, hi;
