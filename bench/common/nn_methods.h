@@ -204,7 +204,7 @@ class NanoflannNn : public NnMethod {
   void build(const std::vector<float>& xyz) override {
     cloud_.xyz = xyz;
     // The constructor builds the tree (nanoflann >= 1.4; Debian 12 ships 1.4.2). An explicit
-    // buildIndex() after it, as an earlier version of this peer had, built it twice.
+    // buildIndex() after it would build it twice.
     index_.reset(new Index(3, cloud_, nanoflann::KDTreeSingleIndexAdaptorParams(10)));
     if (sorted_) {
       for (int d = 0; d < 3; ++d) lo_[d] = hi_[d] = xyz.empty() ? 0.f : xyz[d];
