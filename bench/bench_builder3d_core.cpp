@@ -1,4 +1,4 @@
-// 3D Delaunay graph builders side by side (issue 8): the incremental kernel (1..N threads), Qhull
+// 3D Delaunay graph builders side by side: the incremental kernel (1..N threads), Qhull
 // (dw::qhullDelaunayEdges) and CGAL's Delaunay_triangulation_3 (benchmark-only peer) on the same
 // Morton-ordered distinct float points the graph builder hands over. Counters: points per second,
 // peak bytes per point the build adds (measured in a forked child), distinct edges per point, and for
@@ -100,7 +100,7 @@ const Points& dataset(const std::string& name) {
 // Peak memory a build adds: run it in a forked child and compare the child's peak resident set with
 // that of a child that does nothing (both start with the parent's pages, data sets included). The
 // parent's free heap goes back to the system first (dw::releaseFreeHeap): a child reusing blocks that
-// earlier timed runs freed added no pages (100k points read 64 B/pt for ours on 2 threads).
+// earlier timed runs freed adds no pages and under-reports (100k points read 64 B/pt on 2 threads).
 template <class Fn>
 double peakBytesOf(Fn&& fn) {
   dw::releaseFreeHeap();
@@ -190,9 +190,8 @@ using CgalDelaunay = CGAL::Delaunay_triangulation_3<K, Tds>;
 // CGAL's whole job as ours: triangulate (range insertion spatially sorts, Hilbert and BRIO, itself),
 // then list each finite edge once. The edges are listed per vertex through finite_adjacent_vertices:
 // on 1M uniform points (this box) that took 1.3 s, against 2.2 s through finite_edges_iterator and
-// another 2.2 s for number_of_finite_edges(), which counts by walking all edges (an earlier version
-// of this peer called both: 8.6 s for CGAL's 5.5 s job). *triangulation_s gets the
-// triangulation's own time.
+// another 2.2 s for number_of_finite_edges(), which counts by walking all edges (calling both would
+// charge CGAL 8.6 s for its 5.5 s job). *triangulation_s gets the triangulation's own time.
 dw::EdgeList cgalEdges(const Points& p, std::size_t* cells, double* triangulation_s) {
   std::vector<std::pair<K::Point_3, dw::index_t>> in(p.size());
   for (std::size_t i = 0; i < p.size(); ++i) in[i] = {K::Point_3(p[i].x, p[i].y, p[i].z), dw::index_t(i)};
@@ -241,7 +240,7 @@ void registerAll() {
   std::vector<std::string> names{"uniform_100k", "uniform_1M", "dragon_437k"};
   if (big) names.push_back("uniform_4M");
   for (const std::string& name : names) {
-    // 1 and 2 threads (the issue's 1 -> 2 ratio, also on a 2-core machine), then doubling up to all.
+    // 1 and 2 threads (the 1 -> 2 ratio, measurable on a 2-core machine too), then doubling up to all.
     std::vector<unsigned> threads{1, 2};
     for (unsigned t = 4; t < hw; t *= 2) threads.push_back(t);
     if (hw > 2) threads.push_back(hw);

@@ -1,6 +1,6 @@
 /// \file dw_delaunay3d_scaling.cpp
-/// \brief dw_delaunay3d_scaling: thread-scaling measurement of the 3D Delaunay graph builder (issue 8;
-/// core only, so it also runs on the device machine). Builds the triangulation of uniform points in a
+/// \brief dw_delaunay3d_scaling: thread-scaling measurement of the 3D Delaunay graph builder (core
+/// only, so it also runs on the device machine). Builds the triangulation of uniform points in a
 /// cube (or of a point file) with every requested thread count, exactly as dw::incrementalDelaunayEdges
 /// does (BRIO rounds, partitioned parallel insertion, parallel edge extraction), and prints the stage
 /// times, how much the threads inserted, peak memory growth per point, and whether every thread count

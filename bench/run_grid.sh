@@ -8,7 +8,7 @@
 # scripts/plot_benchmarks.py.
 #
 #   bench/run_grid.sh [--bin DIR] [--out DIR] [--workers N] [--deadline SECONDS] [--plan NAME]
-#     --bin       folder holding dw_bench (default build-bench/apps)
+#     --bin       folder holding dw_bench (default build-bench/bench)
 #     --workers   parallel processes (default: the number of cores)
 #     --deadline  wall seconds from now after which no job starts and running jobs are stopped
 #                 (default: none). Rows are flushed as they are measured; a stopped job keeps its rows.
@@ -27,7 +27,7 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 
-BIN=build-bench/apps
+BIN=build-bench/bench
 OUT=build-bench/bench-results/grid
 WORKERS=$(nproc)
 DEADLINE=0

@@ -68,7 +68,7 @@ else
     --methods pcl-kdtree,nanoflann,walk-kd-ann,walk-pnn,walk-pnn-optimized,walk-pnn-optimized-prefetch \
     --out "$OUT/scaling" | tee "$OUT/scaling.log"
   echo "== the rotation grid on $JOBS processes into $OUT/grid (bench/run_grid.sh)"
-  bench/run_grid.sh --bin "$BUILD_DIR/apps" --out "$OUT/grid" --workers "$JOBS" --plan all
+  bench/run_grid.sh --bin "$BUILD_DIR/bench" --out "$OUT/grid" --workers "$JOBS" --plan all
   echo "== acceptance on dragon-100k into $OUT/accept"
   "$BUILD_DIR/bench/dw_bench" --sections accept --out "$OUT/accept" "${EXTRA[@]}" | tee "$OUT/accept.log"
 fi

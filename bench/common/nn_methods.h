@@ -158,7 +158,7 @@ class PclOctreeNn : public NnMethod {
     const double n = std::max<double>(1.0, cloud_->size());
     // Surface-like clouds: spacing ~ sqrt(area / n), with the bbox diagonal squared for the area. The
     // factor (2) can be swept with DW_BENCH_OCTREE_FACTOR: the best differs by data set
-    // (docs/benchmarks.md, Session 12).
+    // (docs/benchmarks.md, "Nearest-neighbour search").
     double diag = 0;
     {
       Eigen::Vector4f lo, hi;
@@ -204,7 +204,7 @@ class NanoflannNn : public NnMethod {
   void build(const std::vector<float>& xyz) override {
     cloud_.xyz = xyz;
     // The constructor builds the tree (nanoflann >= 1.4; Debian 12 ships 1.4.2). An explicit
-    // buildIndex() after it, as an earlier version of this peer had, built it twice.
+    // buildIndex() after it would build it twice.
     index_.reset(new Index(3, cloud_, nanoflann::KDTreeSingleIndexAdaptorParams(10)));
     if (sorted_) {
       for (int d = 0; d < 3; ++d) lo_[d] = hi_[d] = xyz.empty() ? 0.f : xyz[d];

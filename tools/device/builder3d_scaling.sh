@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Run ON THE DEVICE MACHINE (16+ CPU cores, no PCL) from the repository root, with .deps carried (Qhull
 # for the core build, the dragon): builds the PCL-free 3D builder's scaling tool and measures the 3D
-# Delaunay graph builder's thread scaling (issue 8) on uniform points generated there and on the dragon,
+# Delaunay graph builder's thread scaling on uniform points generated there and on the dragon,
 # plus the ceiling of any partitioned scheme (--independent). Logs go to $OUT (or ./out).
 #   usage: tools/device/builder3d_scaling.sh [THREADS]     (default: 1,2,4,8,16)
 #   DW_SCALING_SIZES="1M 4M" (default), DW_SCALING_REPEATS=2 (default)

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Run HERE (the development machine), once per session, before using the device machine: fills the
+# Run HERE (the development machine), once per checkout, before using the device machine: fills the
 # git-ignored folder .deps/ with what the device lacks: Qhull (headers, the reentrant library and a
 # minimal CMake package), nanoflann's header, and the real clouds the GPU tests and benchmark read.
 # The device call then names .deps in `carry` and runs tools/device/run.sh.

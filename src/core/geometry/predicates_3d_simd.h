@@ -123,7 +123,7 @@ namespace lanes {
 [[gnu::always_inline]] inline unsigned orient3dFacesOf(const Differences& q, double out[4]) {
   // The scalar form's m03, m32 and m13 are exact negations of m1's and m2's lanes.
   const V4d &x = q.x, &y = q.y, &z = q.z, &m1 = q.m1, &m2 = q.m2;
-  // Lane f sums the three products of out[f] in the scalar order, the leading minus of out[0..2]
+  // Lane f sums the three products of out[f] in the scalar order, out[0..2]'s leading minus
   // folded into the minors (exact):
   //   out[0] = -(z3 m12 + z1 m23 + z2 m31)   out[1] = -(z0 m32 + z3 m20 + z2 m03)
   //   out[2] = -(z0 m13 + z1 m30 + z3 m01)   out[3] = z0 m12 + z1 m20 + z2 m01

@@ -141,8 +141,9 @@ bool CallerMetricSearch::nearest(const float q[3], dw::StartStrategy strategy, d
       if (best.index < 0 || byDistanceThenIndex(c, best)) best = c;
     }
   }
-  // The second nearest vertex is a Delaunay neighbour of the nearest (DESIGN.md §3), so if every
-  // neighbour is clearly farther, no other point can be nearer in the caller's metric either.
+  // The second nearest vertex is a Delaunay neighbour of the nearest (docs/architecture.md, "Why the searches
+  // are exact"), so if every neighbour is clearly farther, no other point can be nearer in the caller's
+  // metric either.
   const float tol = tolerance(nn.dist2, qe);
   const float bound = nn.dist2 + 2.f * tol;
   // First from the edge records alone (one contiguous read, no neighbour coordinates): with

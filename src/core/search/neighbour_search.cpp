@@ -38,9 +38,10 @@ index_t NeighbourSearch::startVertex(const Vec3f& q, StartStrategy s, index_t hi
 
 namespace {
 
-/// Best-first expansion over the graph from the nearest vertex (DESIGN.md §3): the i-th nearest vertex
-/// is a Delaunay neighbour of one of the first i-1, so popping a min-heap of the frontier yields the
-/// vertices in exact distance order. `take` receives (vertex, dist2) and returns false to stop.
+/// Best-first expansion over the graph from the nearest vertex (docs/architecture.md, "Why the searches are
+/// exact"): the i-th nearest vertex is a Delaunay neighbour of one of the first i-1, so popping a min-heap of
+/// the frontier yields the vertices in exact distance order. `take` receives (vertex, dist2) and returns
+/// false to stop.
 template <typename Take>
 void expand(const DelaunayGraph& g, const Vec3f& q, const WalkResult& nn, double stop_above, Take take) {
   if (nn.vertex == kInvalidIndex || nn.vertex >= g.points.size()) return;

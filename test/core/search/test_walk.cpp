@@ -92,7 +92,7 @@ TEST(Graph, LayoutInvariants) {
       for (index_t b = g.offsets[e.j]; b < g.offsets[e.j + 1]; ++b) back |= g.edges[b].j == v;
       EXPECT_TRUE(back);
     }
-  // Mean degree of a 3D Delaunay graph of uniform points is ~15.5 (DESIGN.md §2).
+  // Mean degree of a 3D Delaunay graph of uniform points is ~15.5 (docs/architecture.md, "The walk graph").
   const double mean = double(g.numDirectedEdges()) / g.numVertices();
   EXPECT_GT(mean, 13.0);
   EXPECT_LT(mean, 17.0);

@@ -1,5 +1,6 @@
 /// \file delaunay_graph.h
-/// \brief The walk graph: Delaunay neighbourhoods of the reference cloud in CSR form (DESIGN.md §2).
+/// \brief The walk graph: Delaunay neighbourhoods of the reference cloud in CSR form
+/// (docs/architecture.md, "The walk graph").
 #pragma once
 
 #include <array>

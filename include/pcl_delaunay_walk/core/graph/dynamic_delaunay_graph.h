@@ -1,5 +1,5 @@
 /// \file dynamic_delaunay_graph.h
-/// \brief A walk graph for sliding-window maps (issue 8): points are added to and removed from the
+/// \brief A walk graph for sliding-window maps: points are added to and removed from the
 /// reference without re-triangulating, and the walk graph of the live points is made from the kept
 /// 3D Delaunay triangulation.
 #pragma once
@@ -33,8 +33,8 @@ class Triangulation3D;
 ///   triangulation and graph() falls back to buildDelaunayGraph on the live points, which handles
 ///   those sets exactly (planar sets need Qhull there, like everywhere else); the triangulation is
 ///   built as soon as the points span 3D again.
-/// - Coordinates are stored as float relative to a double origin (DESIGN.md §2). Choose an origin near
-///   the data: float keeps about 7 significant digits of the offset from it.
+/// - Coordinates are stored as float relative to a double origin (docs/architecture.md, "The walk
+///   graph"). Choose an origin near the data: float keeps about 7 significant digits of the offset from it.
 /// - Bad input (NaN/Inf, a point equal to a live point or to another in the same batch, an unknown or
 ///   repeated id) throws dw::Error before anything changes.
 ///

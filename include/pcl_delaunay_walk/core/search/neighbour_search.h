@@ -1,7 +1,7 @@
 /// \file neighbour_search.h
-/// \brief The core search engine over a DelaunayGraph: start location + walk for NN, best-first
-/// expansion from the NN for exact kNN and radius search (DESIGN.md §3). Thread-safe for concurrent
-/// queries; results are input indices (duplicates expanded), sorted by distance.
+/// \brief The core search engine over a DelaunayGraph: start location + walk for NN, best-first expansion
+/// from the NN for exact kNN and radius search (docs/architecture.md, "Why the searches are exact").
+/// Thread-safe for concurrent queries; results are input indices (duplicates expanded), sorted by distance.
 #pragma once
 
 #include <memory>

@@ -26,14 +26,14 @@ inline double squaredDistanceD(const Vec3f& a, const Vec3f& b) {
 
 /// Walks from `start` towards query `q` (in the graph's local frame).
 ///
-/// At vertex i with u = q - x_i, c = u.e_ij for each edge; if some c > m_ij, move to the j of largest
-/// c, else x_i is the exact nearest neighbour (DESIGN.md §3). The float test is exact except within its
-/// rounding error (< 1e-6 (|u| + m), from u, the rounded unit vector and m): edges that close to their
-/// threshold are re-decided by comparing distances in double, which also catches queries far from the
-/// data, where float squared distances of different vertices round to the same value. A move is taken
-/// only if it strictly lowers the double distance, so the walk always terminates. Before scanning, a
-/// query inside the vertex's safe ball (DelaunayGraph::safe_radius2) ends the walk at once: near
-/// convergence most ICP queries lie next to their previous nearest vertex.
+/// At vertex i with u = q - x_i, c = u.e_ij for each edge; if some c > m_ij, move to the j of largest c, else
+/// x_i is the exact nearest neighbour (docs/architecture.md, "Why the searches are exact"). The float test is
+/// exact except within its rounding error (< 1e-6 (|u| + m), from u, the rounded unit vector and m): edges
+/// that close to their threshold are re-decided by comparing distances in double, which also catches queries
+/// far from the data, where float squared distances of different vertices round to the same value. A move is
+/// taken only if it strictly lowers the double distance, so the walk always terminates. Before scanning, a
+/// query inside the vertex's safe ball (DelaunayGraph::safe_radius2) ends the walk at once: near convergence
+/// most ICP queries lie next to their previous nearest vertex.
 inline WalkResult walk(const DelaunayGraph& g, const Vec3f& q, index_t start) {
   WalkResult r;
   if (g.points.empty()) return r;
