@@ -38,6 +38,8 @@ if [ "$failed" = 0 ]; then
     DW_FUZZ_SEED=${DW_FUZZ_SEED:-1} step fuzz bash scripts/fuzz.sh "${DW_FUZZ_SECONDS:-15}"
   fi
   step ctest ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" --timeout 900
+  # The Python package's tests (python/tests); pytest's exit 5 (no test collected) fails the step too.
+  step pytest bash -c ". '$BUILD_DIR/python/test_env.sh' && \"\$DW_PYTHON\" -m pytest -q python/tests"
 fi
 
 echo "== summary"

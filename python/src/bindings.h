@@ -1,0 +1,14 @@
+/// \file bindings.h
+/// \brief The registration functions of the module's parts, one per concept, each in its own file.
+#pragma once
+
+#include <pybind11/pybind11.h>
+
+namespace dw_py {
+
+void bindGraph(pybind11::module_& m);   ///< DelaunayGraph (graph_bindings.cpp)
+void bindSearch(pybind11::module_& m);  ///< NeighbourSearch (search_bindings.cpp)
+void bindTinLas(pybind11::module_& m);  ///< tin(), read_las() (tin_las_bindings.cpp)
+void bindIcp(pybind11::module_& m);     ///< icp() through the PCL layer (icp_bindings.cpp)
+
+}  // namespace dw_py

@@ -1,0 +1,56 @@
+"""DelaunayGraph: statistics, save/load round trip, and corrupt files raising GraphFileError."""
+
+import numpy as np
+import pytest
+
+import pcl_delaunay_walk as dw
+
+
+def test_statistics(bunny):
+    g = dw.DelaunayGraph(bunny)
+    assert g.num_input_points == len(bunny)
+    assert 0 < g.num_vertices <= len(bunny)
+    assert g.num_directed_edges == 2 * g.num_edges
+    st = g.degree_statistics()
+    assert 0 < st["min"] <= st["mean"] <= st["max"]
+    assert st["mean"] == pytest.approx(g.num_directed_edges / g.num_vertices)
+    assert g.dimension == 3 and g.memory_bytes > 0
+    assert g.points.shape == (g.num_vertices, 3) and g.points.dtype == np.float32
+    g.validate()
+
+
+def test_builders_agree(bunny):
+    a = dw.DelaunayGraph(bunny[:5000], builder="auto")
+    b = dw.DelaunayGraph(bunny[:5000], builder="incremental", threads=1)
+    assert a.num_edges == b.num_edges
+
+
+def test_save_load_round_trip(tmp_path, bunny):
+    g = dw.DelaunayGraph(bunny)
+    path = str(tmp_path / "bunny.graph")
+    g.save(path)
+    h = dw.DelaunayGraph.load(path)
+    assert (h.num_vertices, h.num_edges, h.dimension, h.origin) == (g.num_vertices, g.num_edges, g.dimension, g.origin)
+    np.testing.assert_array_equal(h.points, g.points)
+    np.testing.assert_array_equal(h.input_to_vertex, g.input_to_vertex)
+    q = bunny[::7] + np.float32(0.001)
+    for a, b in zip(dw.NeighbourSearch(g).knn(q, 5), dw.NeighbourSearch(h).knn(q, 5)):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_corrupt_truncated_and_missing_files_raise(tmp_path):
+    g = dw.DelaunayGraph(np.random.default_rng(3).random((2000, 3)))
+    path = tmp_path / "g.graph"
+    g.save(str(path))
+    data = path.read_bytes()
+    flipped = bytearray(data)
+    flipped[len(data) // 2] ^= 0xFF
+    cases = {"flipped": bytes(flipped), "truncated": data[: len(data) // 3], "foreign": b"not a graph" * 50, "empty": b""}
+    for name, content in cases.items():
+        bad = tmp_path / f"{name}.graph"
+        bad.write_bytes(content)
+        with pytest.raises(dw.GraphFileError):
+            dw.DelaunayGraph.load(str(bad))
+    with pytest.raises(dw.Error):
+        dw.DelaunayGraph.load(str(tmp_path / "missing.graph"))
+    assert issubclass(dw.GraphFileError, RuntimeError)
