@@ -256,7 +256,7 @@ void brioHilbertSort(const double* xy, std::vector<index_t>& positions) {
   const double inv = ext > 0 ? 1.0 / ext : 0.0;
   // Biased randomised insertion order (Amenta, Choi, Rote 2003): round r holds about n / 2^(R-r) points
   // (the last round half of them), each round in Hilbert order. Pure curve order leaves long thin
-  // triangles along the front of the inserted region, which made cavities ~50% larger here.
+  // triangles along the front of the inserted region, which makes cavities ~50% larger.
   int rounds = 1;
   while (rounds < 20 && (n >> rounds) > 1024) ++rounds;
   std::vector<std::uint64_t> a(n), b(n);

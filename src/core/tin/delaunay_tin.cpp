@@ -35,7 +35,7 @@ double secondsSince(Clock::time_point t0) {
 }
 
 /// Points per strip aimed at by default. Smaller strips sort and triangulate faster (the strip's arrays
-/// stay closer in cache: 10M points took 12 % less CPU time in 8 strips than in one), but every seam
+/// stay closer in cache: 10M points take 12 % less CPU time in 8 strips than in one), but every seam
 /// costs a merge; around 1M points per strip, the seed's best block size too, the balance is best.
 constexpr std::size_t kStripPoints = std::size_t(1) << 20;
 
@@ -393,7 +393,7 @@ void TinBuild::layOutStrips() {
 /// Pass C: the finite points' coordinates and ranks scattered into strip order.
 void TinBuild::scatterIntoStrips() {
   // Not value-initialised: the parallel scatter below is the first touch (a serial zero-fill of
-  // 20 bytes/point measurably capped the many-core speed-up).
+  // 20 bytes/point measurably caps the many-core speed-up).
   pxy_.reset(new double[2 * n_]);
   rank_.reset(new index_t[n_]);
   team_.forEach(chunks_, [&](std::size_t c) {
@@ -446,7 +446,7 @@ void TinBuild::triangulateAndMergeStrips() {
   detail::MergeScheduler scheduler(num_strips_);
   // Strips are handed out in the order 0, 2, 4, ..., then 1, 3, 5, ...: every strip of the second
   // half finds both neighbours done (or nearly), so the merges follow each strip at once instead of
-  // waiting at the end for a run of adjacent strips that finish together, which took a chain of
+  // waiting at the end for a run of adjacent strips that finish together, which would take a chain of
   // merges one after the other.
   const std::size_t evens = (num_strips_ + 1) / 2;
   team_.forEach(input_tasks + num_strips_, [&](std::size_t task) {

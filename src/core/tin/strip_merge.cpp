@@ -94,8 +94,8 @@ inline std::uint64_t edgeKey(index_t a, index_t b) {
 }
 
 /// The walls as an open-addressing hash map from directed edge to the corner of the sure triangle
-/// across it. Every edge of DT(V_U) is looked up once; a sorted array with binary search made those
-/// lookups half of the merge's own time.
+/// across it. Every edge of DT(V_U) is looked up once; with a sorted array and binary search those
+/// lookups are half of the merge's own time.
 class WallTable {
  public:
   explicit WallTable(std::size_t walls) {
