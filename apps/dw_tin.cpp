@@ -14,8 +14,8 @@
 #include <thread>
 
 #include "core/util/file_header_check.h"
-#include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "core/util/process_memory.h"
+#include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/core/tin/ply_writer.h"
@@ -163,8 +163,8 @@ InputCloud readInput(const Arguments& args) {
   } else if (endsWith(ext, ".pcd") || endsWith(ext, ".ply")) {
     if (args.cls >= 0) throw dw::Error("--class needs a LAS input");
     dw::checkPointFileHeader(in);  // PCL 1.13 crashes on some malformed headers (robustness.md)
-    const int rc = endsWith(ext, ".pcd") ? pcl::io::loadPCDFile(in, input.cloud)
-                                         : pcl::io::loadPLYFile(in, input.cloud);
+    const int rc =
+        endsWith(ext, ".pcd") ? pcl::io::loadPCDFile(in, input.cloud) : pcl::io::loadPLYFile(in, input.cloud);
     if (rc < 0) throw dw::Error(in + ": PCL could not read the file (corrupt or unsupported)");
   } else {
     throw dw::Error(in + ": unknown input type (expected .las, .pcd or .ply)");

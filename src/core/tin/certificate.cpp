@@ -40,7 +40,8 @@ std::string checkTriangles(const double* x, const double* y, std::size_t n, cons
   }
   for (std::size_t i = 0; i < n; ++i) c.vertices += used[i];
   if (expected_vertices && c.vertices != expected_vertices)
-    return "mesh uses " + std::to_string(c.vertices) + " vertices, expected " + std::to_string(expected_vertices);
+    return "mesh uses " + std::to_string(c.vertices) + " vertices, expected " +
+           std::to_string(expected_vertices);
   return {};
 }
 
@@ -66,7 +67,8 @@ std::string checkEdges(const double* x, const double* y, const index_t* tris, Ce
     const auto it = std::lower_bound(edges.begin(), edges.end(), rev,
                                      [](const DEdge& l, std::uint64_t k) { return l.key < k; });
     if (it == edges.end() || it->key != rev) {
-      if (!hull_next.emplace(a, b).second) return "hull is not a simple cycle (vertex " + std::to_string(a) + ")";
+      if (!hull_next.emplace(a, b).second)
+        return "hull is not a simple cycle (vertex " + std::to_string(a) + ")";
       continue;
     }
     if (a > b) continue;  // each interior edge once

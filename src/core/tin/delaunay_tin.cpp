@@ -364,8 +364,8 @@ void TinBuild::checkExactRange() const {
   for (const ChunkScan& cs : scan_)
     if (cs.out_of_range != kNone) {
       const std::size_t i = cs.out_of_range;
-      throw Error("dw::tin::triangulate: point " + std::to_string(i) + " (" + std::to_string(xin_[i]) +
-                  ", " + std::to_string(yin_[i]) +
+      throw Error("dw::tin::triangulate: point " + std::to_string(i) + " (" + std::to_string(xin_[i]) + ", " +
+                  std::to_string(yin_[i]) +
                   ") is outside the range where the exact predicates are exact (each coordinate 0 or "
                   "between 2^-150 ~ 7e-46 and 2^200 ~ 1.6e60 in magnitude); rescale or re-centre the input");
     }

@@ -190,8 +190,8 @@ struct BandClassification {
 
 /// Each wall found in DT(V_U) marks its band side kept and seeds the covered region on its other side;
 /// the covered region is then flooded without crossing a wall.
-BandClassification classifyBand(const index_t* tv2, const index_t* tn2, index_t used, const WallTable& wall_table,
-                                std::size_t walls) {
+BandClassification classifyBand(const index_t* tv2, const index_t* tn2, index_t used,
+                                const WallTable& wall_table, std::size_t walls) {
   BandClassification cls;
   std::vector<unsigned char>& state = cls.state;
   std::vector<index_t>& wall_of = cls.wall_of;
@@ -322,7 +322,8 @@ Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam
     return out;
   }
   const index_t used = kernel.used();
-  const BandClassification cls = classifyBand(tv2.data(), tn2.data(), used, wall_table, boundary.walls.size());
+  const BandClassification cls =
+      classifyBand(tv2.data(), tn2.data(), used, wall_table, boundary.walls.size());
 
   // Euler: the merged triangulation (ghosts included) has 2V - 2 triangles; the sure ones stay.
   std::size_t keep = 0;
