@@ -14,8 +14,8 @@
 #include <thread>
 
 #include "core/util/file_header_check.h"
-#include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "core/util/process_memory.h"
+#include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/core/tin/ply_writer.h"
@@ -52,156 +52,204 @@ double since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+/// The command line.
+struct Arguments {
   std::string in, out;
   dw::tin::TinOptions opt;
   int cls = -1;
-  bool certify = false, quiet = false;
-  try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      auto value = [&]() -> const char* {
-        if (i + 1 >= argc) throw dw::Error("missing value after " + a);
-        return argv[++i];
-      };
-      if (a == "-o" || a == "--output")
-        out = value();
-      else if (a == "--threads")
-        opt.num_threads = parseUnsigned(a, value());
-      else if (a == "--strips")
-        opt.num_strips = parseUnsigned(a, value());
-      else if (a == "--class")
-        cls = int(parseUnsigned(a, value()));
-      else if (a == "--certify")
-        certify = true;
-      else if (a == "--quiet")
-        quiet = true;
-      else if (a == "-h" || a == "--help") {
-        usage();
-        return 0;
-      } else if (!a.empty() && a[0] == '-') {
-        throw dw::Error("unknown option " + a);
-      } else if (in.empty()) {
-        in = a;
-      } else {
-        throw dw::Error("more than one input file given");
-      }
-    }
-    if (in.empty()) throw dw::Error("no input file");
-    if (out.empty()) throw dw::Error("no output file (-o out.ply)");
-    if (!std::ifstream(in).good()) throw dw::Error(in + ": cannot open for reading");
-    if (opt.num_threads == 0) opt.num_threads = std::max(1u, std::thread::hardware_concurrency());
-    if (!quiet)
-      opt.progress = [](const std::string& stage, double f) {
-        std::fprintf(stderr, "\r  %-8s %5.1f%%", stage.c_str(), 100.0 * f);
-        if (f >= 1.0) std::fprintf(stderr, "\n");
-      };
+  bool certify = false, quiet = false, help = false;
+};
 
-    const auto t0 = std::chrono::steady_clock::now();
-    // The kept source coordinates (12 bytes/point) give the output vertices and, converted exactly, the
-    // triangulation frame: LAS integers when the x and y scales agree (an exact similarity of the world
-    // plane), else scaled units; PCD/PLY floats as they are.
-    dw::las::LasCloud las;
-    pcl::PointCloud<pcl::PointXYZ> cloud;
-    bool is_las = false, same_scale = true;
-    const std::string ext = lower(in);
-    if (endsWith(ext, ".las") || endsWith(ext, ".laz")) {
-      is_las = true;
-      dw::las::LasReadOptions lo;
-      lo.classification = cls;
-      static int last_pct = -1;  // print every 5 %: a terminal line, not a log flood
-      if (!quiet)
-        lo.progress = [](double f, void*) {
-          const int pct = int(100.0 * f);
-          if (pct / 5 == last_pct / 5) return;
-          last_pct = pct;
-          std::fprintf(stderr, "\r  %-8s %5d%%", "read", pct);
-        };
-      las = dw::las::readLasFile(in, lo);
-      if (!quiet) std::fprintf(stderr, "\n");
-      same_scale = las.header.scale[0] == las.header.scale[1];
-    } else if (endsWith(ext, ".pcd") || endsWith(ext, ".ply")) {
-      if (cls >= 0) throw dw::Error("--class needs a LAS input");
-      dw::checkPointFileHeader(in);  // PCL 1.13 crashes on some malformed headers (robustness.md)
-      const int rc =
-          endsWith(ext, ".pcd") ? pcl::io::loadPCDFile(in, cloud) : pcl::io::loadPLYFile(in, cloud);
-      if (rc < 0) throw dw::Error(in + ": PCL could not read the file (corrupt or unsupported)");
-    } else {
-      throw dw::Error(in + ": unknown input type (expected .las, .pcd or .ply)");
-    }
-    const std::size_t n = is_las ? las.size() : cloud.size();
-    auto frame = [&](std::vector<double>& x, std::vector<double>& y) {
-      x.resize(n);
-      y.resize(n);
-      for (std::size_t i = 0; i < n; ++i) {
-        if (is_las) {
-          x[i] = same_scale ? double(las.X[i]) : las.X[i] * las.header.scale[0];
-          y[i] = same_scale ? double(las.Y[i]) : las.Y[i] * las.header.scale[1];
-        } else {
-          x[i] = cloud[i].x;
-          y[i] = cloud[i].y;
-        }
-      }
+Arguments parseArguments(int argc, char** argv) {
+  Arguments args;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> const char* {
+      if (i + 1 >= argc) throw dw::Error("missing value after " + a);
+      return argv[++i];
     };
-    const double t_read = since(t0);
-    if (!quiet) std::fprintf(stderr, "read %zu points in %.2f s\n", n, t_read);
-    if (n == 0)
-      throw dw::Error(in + ": no points" + (cls >= 0 ? " of class " + std::to_string(cls) : std::string()));
-
-    const auto t1 = std::chrono::steady_clock::now();
-    dw::tin::TinResult tin;
-    {
-      std::vector<double> x, y;
-      frame(x, y);
-      tin = dw::tin::triangulate(std::move(x), std::move(y), opt);
+    if (a == "-o" || a == "--output")
+      args.out = value();
+    else if (a == "--threads")
+      args.opt.num_threads = parseUnsigned(a, value());
+    else if (a == "--strips")
+      args.opt.num_strips = parseUnsigned(a, value());
+    else if (a == "--class")
+      args.cls = int(parseUnsigned(a, value()));
+    else if (a == "--certify")
+      args.certify = true;
+    else if (a == "--quiet")
+      args.quiet = true;
+    else if (a == "-h" || a == "--help") {
+      args.help = true;
+      return args;
+    } else if (!a.empty() && a[0] == '-') {
+      throw dw::Error("unknown option " + a);
+    } else if (args.in.empty()) {
+      args.in = a;
+    } else {
+      throw dw::Error("more than one input file given");
     }
-    const double t_tin = since(t1);
-    if (tin.degenerate)
-      std::fprintf(stderr, "warning: the %zu distinct points are collinear (or fewer than 3): no triangle\n",
-                   tin.num_vertices);
+  }
+  if (args.in.empty()) throw dw::Error("no input file");
+  if (args.out.empty()) throw dw::Error("no output file (-o out.ply)");
+  if (!std::ifstream(args.in).good()) throw dw::Error(args.in + ": cannot open for reading");
+  if (args.opt.num_threads == 0) args.opt.num_threads = std::max(1u, std::thread::hardware_concurrency());
+  if (!args.quiet)
+    args.opt.progress = [](const std::string& stage, double f) {
+      std::fprintf(stderr, "\r  %-8s %5.1f%%", stage.c_str(), 100.0 * f);
+      if (f >= 1.0) std::fprintf(stderr, "\n");
+    };
+  return args;
+}
 
-    if (certify) {
-      std::vector<double> x, y;
-      frame(x, y);
-      const auto c = dw::tin::certifyDelaunay(x.data(), y.data(), n, tin.triangles, tin.num_vertices);
-      std::fprintf(stderr, "certificate: %s (%zu interior edges locally Delaunay, %zu hull edges)\n",
-                   c.message.c_str(), c.interior_edges, c.hull_edges);
-      if (!c.ok) return 2;
+/// The kept source coordinates (12 bytes/point) give the output vertices and, converted exactly, the
+/// triangulation frame: LAS integers when the x and y scales agree (an exact similarity of the world
+/// plane), else scaled units; PCD/PLY floats as they are.
+struct InputCloud {
+  dw::las::LasCloud las;
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  bool is_las = false, same_scale = true;
+
+  std::size_t size() const { return is_las ? las.size() : cloud.size(); }
+  /// The triangulation frame's (x, y) of every point.
+  void frame(std::vector<double>& x, std::vector<double>& y) const {
+    const std::size_t n = size();
+    x.resize(n);
+    y.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (is_las) {
+        x[i] = same_scale ? double(las.X[i]) : las.X[i] * las.header.scale[0];
+        y[i] = same_scale ? double(las.Y[i]) : las.Y[i] * las.header.scale[1];
+      } else {
+        x[i] = cloud[i].x;
+        y[i] = cloud[i].y;
+      }
     }
+  }
+  /// Point i's source coordinates, as written to the mesh.
+  void point(std::size_t i, double* p) const {
+    if (is_las) {
+      p[0] = las.x(i);
+      p[1] = las.y(i);
+      p[2] = las.z(i);
+    } else {
+      p[0] = cloud[i].x;
+      p[1] = cloud[i].y;
+      p[2] = cloud[i].z;
+    }
+  }
+};
 
-    const auto t2 = std::chrono::steady_clock::now();
-    const std::vector<std::string> comments = {"dw_tin Delaunay TIN of " + in,
-                                               "triangles are Delaunay in (x, y); z is carried"};
-    const std::uint64_t written = dw::tin::writeTinPly(
-        out, n,
-        [&](std::size_t i, double* p) {
-          if (is_las) {
-            p[0] = las.x(i);
-            p[1] = las.y(i);
-            p[2] = las.z(i);
-          } else {
-            p[0] = cloud[i].x;
-            p[1] = cloud[i].y;
-            p[2] = cloud[i].z;
-          }
-        },
-        tin.triangles.data(), tin.triangles.size(), comments);
-    const double t_write = since(t2), total = since(t0);
-    const long peak = dw::processStatusKb("VmHWM:");
-    std::printf(
-        "points %zu (distinct %zu, duplicates %zu, skipped %zu)  triangles %zu  vertices written %llu\n", n,
-        tin.num_vertices, tin.duplicates.size(), tin.skipped.size(), tin.numTriangles(),
-        static_cast<unsigned long long>(written));
-    std::printf(
-        "strips %zu  threads %u  read %.2f s  triangulate %.2f s (%.2f M points/s; strips %.2f s, merge %.2f "
-        "s)"
-        "  write %.2f s  total %.2f s\n",
-        tin.stats.strips, opt.num_threads ? opt.num_threads : std::thread::hardware_concurrency(), t_read,
-        t_tin, n / t_tin / 1e6, tin.stats.strips_s, tin.stats.merge_s, t_write, total);
-    std::printf("peak memory %.1f MB (%.1f bytes/point)\n", peak / 1024.0, peak * 1024.0 / double(n));
-    return 0;
+InputCloud readInput(const Arguments& args) {
+  InputCloud input;
+  const std::string& in = args.in;
+  const std::string ext = lower(in);
+  if (endsWith(ext, ".las") || endsWith(ext, ".laz")) {
+    input.is_las = true;
+    dw::las::LasReadOptions lo;
+    lo.classification = args.cls;
+    static int last_pct = -1;  // print every 5 %: a terminal line, not a log flood
+    if (!args.quiet)
+      lo.progress = [](double f, void*) {
+        const int pct = int(100.0 * f);
+        if (pct / 5 == last_pct / 5) return;
+        last_pct = pct;
+        std::fprintf(stderr, "\r  %-8s %5d%%", "read", pct);
+      };
+    input.las = dw::las::readLasFile(in, lo);
+    if (!args.quiet) std::fprintf(stderr, "\n");
+    input.same_scale = input.las.header.scale[0] == input.las.header.scale[1];
+  } else if (endsWith(ext, ".pcd") || endsWith(ext, ".ply")) {
+    if (args.cls >= 0) throw dw::Error("--class needs a LAS input");
+    dw::checkPointFileHeader(in);  // PCL 1.13 crashes on some malformed headers (robustness.md)
+    const int rc =
+        endsWith(ext, ".pcd") ? pcl::io::loadPCDFile(in, input.cloud) : pcl::io::loadPLYFile(in, input.cloud);
+    if (rc < 0) throw dw::Error(in + ": PCL could not read the file (corrupt or unsupported)");
+  } else {
+    throw dw::Error(in + ": unknown input type (expected .las, .pcd or .ply)");
+  }
+  return input;
+}
+
+/// The exact local-Delaunay check of every edge, on a second copy of the frame; false if it fails.
+bool certify(const InputCloud& input, const dw::tin::TinResult& tin) {
+  std::vector<double> x, y;
+  input.frame(x, y);
+  const auto c = dw::tin::certifyDelaunay(x.data(), y.data(), input.size(), tin.triangles, tin.num_vertices);
+  std::fprintf(stderr, "certificate: %s (%zu interior edges locally Delaunay, %zu hull edges)\n",
+               c.message.c_str(), c.interior_edges, c.hull_edges);
+  return c.ok;
+}
+
+/// Seconds spent in each step of the run, for the report.
+struct Timings {
+  double read = 0, tin = 0, write = 0, total = 0;
+};
+
+void printReport(const Arguments& args, std::size_t n, const dw::tin::TinResult& tin, std::uint64_t written,
+                 const Timings& t) {
+  const long peak = dw::processStatusKb("VmHWM:");
+  std::printf(
+      "points %zu (distinct %zu, duplicates %zu, skipped %zu)  triangles %zu  vertices written %llu\n", n,
+      tin.num_vertices, tin.duplicates.size(), tin.skipped.size(), tin.numTriangles(),
+      static_cast<unsigned long long>(written));
+  std::printf(
+      "strips %zu  threads %u  read %.2f s  triangulate %.2f s (%.2f M points/s; strips %.2f s, merge %.2f "
+      "s)"
+      "  write %.2f s  total %.2f s\n",
+      tin.stats.strips, args.opt.num_threads ? args.opt.num_threads : std::thread::hardware_concurrency(),
+      t.read, t.tin, n / t.tin / 1e6, tin.stats.strips_s, tin.stats.merge_s, t.write, t.total);
+  std::printf("peak memory %.1f MB (%.1f bytes/point)\n", peak / 1024.0, peak * 1024.0 / double(n));
+}
+
+/// Read, triangulate, certify if asked, write, report; the process's exit status.
+int run(const Arguments& args) {
+  Timings t;
+  const auto t0 = std::chrono::steady_clock::now();
+  const InputCloud input = readInput(args);
+  const std::size_t n = input.size();
+  t.read = since(t0);
+  if (!args.quiet) std::fprintf(stderr, "read %zu points in %.2f s\n", n, t.read);
+  if (n == 0)
+    throw dw::Error(args.in + ": no points" +
+                    (args.cls >= 0 ? " of class " + std::to_string(args.cls) : std::string()));
+
+  const auto t1 = std::chrono::steady_clock::now();
+  dw::tin::TinResult tin;
+  {
+    std::vector<double> x, y;
+    input.frame(x, y);
+    tin = dw::tin::triangulate(std::move(x), std::move(y), args.opt);
+  }
+  t.tin = since(t1);
+  if (tin.degenerate)
+    std::fprintf(stderr, "warning: the %zu distinct points are collinear (or fewer than 3): no triangle\n",
+                 tin.num_vertices);
+  if (args.certify && !certify(input, tin)) return 2;
+
+  const auto t2 = std::chrono::steady_clock::now();
+  const std::vector<std::string> comments = {"dw_tin Delaunay TIN of " + args.in,
+                                             "triangles are Delaunay in (x, y); z is carried"};
+  const std::uint64_t written = dw::tin::writeTinPly(
+      args.out, n, [&](std::size_t i, double* p) { input.point(i, p); }, tin.triangles.data(),
+      tin.triangles.size(), comments);
+  t.write = since(t2);
+  t.total = since(t0);
+  printReport(args, n, tin, written, t);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    const Arguments args = parseArguments(argc, argv);
+    if (args.help) {
+      usage();
+      return 0;
+    }
+    return run(args);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dw_tin: %s\n", e.what());
     return 1;

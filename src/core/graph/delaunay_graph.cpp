@@ -158,11 +158,12 @@ inline index_t fetchIncrement(index_t& x) {
 
 }  // namespace
 
-void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> undirected, bool distinct,
-                   unsigned num_threads) {
-  const std::size_t n = g.points.size();
-  const unsigned threads = resolveThreads(num_threads);
-  // Normalise (u < v) and check, in blocks; builders may report an edge once per incident simplex.
+namespace {
+
+// The builder's edge list normalised (u < v), checked, made distinct and rid of loops. Builders may
+// report an edge once per incident simplex.
+void normaliseEdgeList(std::vector<std::pair<index_t, index_t>>& undirected, std::size_t n, bool distinct,
+                       unsigned threads) {
   const unsigned list_workers = workerCount(undirected.size(), threads, std::size_t(1) << 16);
   std::vector<char> out_of_range(list_workers, 0), loops(list_workers, 0);
   parallelFor(undirected.size(), list_workers, [&](std::size_t b, std::size_t e, unsigned w) {
@@ -179,7 +180,7 @@ void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> un
   if (std::count(out_of_range.begin(), out_of_range.end(), 1) > 0)
     throw Error("pcl_delaunay_walk: builder returned an edge to a missing vertex");
   // A list known to be distinct skips the sort/unique (3 % of a LiDAR frame's build); the records'
-  // order comes from the per-vertex sort below either way.
+  // order comes from the per-vertex ordering either way.
   if (!distinct) {
     std::sort(undirected.begin(), undirected.end());
     undirected.erase(std::unique(undirected.begin(), undirected.end()), undirected.end());
@@ -190,13 +191,17 @@ void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> un
                      undirected.end());
   if (2 * undirected.size() > static_cast<std::size_t>(kInvalidIndex))
     throw Error("pcl_delaunay_walk: graph has more than 2^32 directed edges");
+}
 
-  // Degrees, then the records, scattered from the list on all threads into each vertex's part (in an
-  // order that depends on the threads; the ranking below fixes it). An edge's two records are made
-  // together: u -> v is (d / |d|, |d| / 2, v) for d = x_v - x_u, and v -> u is made from x_u - x_v,
-  // which is -d but for the signs of zeros, so the length and the division serve both. Made per vertex
-  // instead, from a list of neighbour ids, each was computed twice and the list took 8 bytes per edge
-  // besides (1M points: 62 MB).
+// Degrees, then the records, scattered from the list on all threads into each vertex's part (in an
+// order that depends on the threads; orderNeighbourhoods fixes it). An edge's two records are made
+// together: u -> v is (d / |d|, |d| / 2, v) for d = x_v - x_u, and v -> u is made from x_u - x_v,
+// which is -d but for the signs of zeros, so the length and the division serve both. Made per vertex
+// instead, from a list of neighbour ids, each would be computed twice and the list would take 8 bytes
+// per edge besides. Frees the list.
+void scatterEdgeRecords(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>>& undirected,
+                        unsigned threads) {
+  const std::size_t n = g.points.size();
   const unsigned workers = workerCount(undirected.size(), threads, std::size_t(1) << 16);
   std::vector<index_t> fill(n, 0);
   auto scatter = [&](auto shared, auto&& fn) {
@@ -235,11 +240,16 @@ void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> un
   });
   detail::freeScratch(undirected);
   detail::freeScratch(fill);
+}
 
-  // Each neighbourhood in order, vertex by vertex on all threads: ordered by (m, j) through one 64-bit
-  // key per record, each record is copied to its key's rank. Sorting the 20-byte records in place by
-  // comparing m, then j, had taken about half of the one-thread assembly (0.29 of 0.6 s at 1M points);
-  // sorting the keys by insertion, 0.49 s of which ~0.1 s went to mispredicted comparisons.
+// Each neighbourhood in order, vertex by vertex on all threads: ordered by (m, j) through one 64-bit
+// key per record, each record is copied to its key's rank. Sorting the 20-byte records in place costs
+// about half of a one-thread assembly, and an insertion sort of the keys loses much of its time to
+// mispredicted comparisons; the branch-free ranking (rankKeys) avoids both. Sets the safe radii;
+// throws if the builder gave an edge twice.
+void orderNeighbourhoods(DelaunayGraph& g, unsigned threads) {
+  const std::size_t n = g.points.size();
+  EdgeRecord* const records = g.edges.data();
   const unsigned vertex_workers = workerCount(n, threads, std::size_t(1) << 14);
   g.safe_radius2.assign(n, 0.f);
   // Per worker, the first repeated edge found (kInvalidIndex: none).
@@ -283,6 +293,16 @@ void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> un
     if (v != kInvalidIndex)
       throw Error("pcl_delaunay_walk: builder returned edge (" + std::to_string(v) + ", " +
                   std::to_string(j) + ") twice");
+}
+
+}  // namespace
+
+void assembleEdges(DelaunayGraph& g, std::vector<std::pair<index_t, index_t>> undirected, bool distinct,
+                   unsigned num_threads) {
+  const unsigned threads = resolveThreads(num_threads);
+  normaliseEdgeList(undirected, g.points.size(), distinct, threads);
+  scatterEdgeRecords(g, undirected, threads);
+  orderNeighbourhoods(g, threads);
 }
 
 namespace {

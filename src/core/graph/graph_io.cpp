@@ -154,7 +154,7 @@ DelaunayGraph deserializeGraph(const std::uint8_t* data, std::size_t size) {
   readArray(p, g.input_to_vertex, h.num_input);
   readArray(p, g.originals_offsets, h.num_vertices + 1);
   readArray(p, g.originals, h.num_originals);
-  sortNeighbourhoods(g);  // files from before the shortest-first order (same format otherwise)
+  sortNeighbourhoods(g);  // files whose neighbourhoods are not shortest-first (same format otherwise)
   try {
     g.validate();
   } catch (const Error& e) {

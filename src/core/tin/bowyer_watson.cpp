@@ -7,6 +7,8 @@
 #include <cstring>
 #include <string>
 
+#include "core/util/space_filling_curve.h"
+
 namespace dw {
 namespace tin {
 namespace detail {
@@ -221,29 +223,6 @@ void BowyerWatson::run(const index_t* order, std::size_t m) {
   for (std::size_t q = k + 1; q < m; ++q) insert(order[q]);
 }
 
-std::uint32_t hilbertKey(double x, double y, double x0, double y0, double inv_sx, double inv_sy) {
-  constexpr double kMax = 65535.0;
-  const double fx = std::min(kMax, std::max(0.0, (x - x0) * inv_sx * kMax));
-  const double fy = std::min(kMax, std::max(0.0, (y - y0) * inv_sy * kMax));
-  std::uint32_t ix = static_cast<std::uint32_t>(fx), iy = static_cast<std::uint32_t>(fy);
-  // Table-driven Hilbert curve: a 4-state machine, two bits of the key per level. kNext[state][quad]
-  // packs the output digit (low 2 bits) and the next state (bits 2-3); quad = 2 * xbit + ybit.
-  // States: 0 identity, 1 transposed, 2 anti-transposed, 3 rotated by 180 degrees (checked against
-  // the classic rotate-and-flip formulation in the tests).
-  static constexpr std::uint8_t kNext[4][4] = {{0 | (1 << 2), 1 | (0 << 2), 3 | (2 << 2), 2 | (0 << 2)},
-                                               {0 | (0 << 2), 3 | (3 << 2), 1 | (1 << 2), 2 | (1 << 2)},
-                                               {2 | (2 << 2), 1 | (2 << 2), 3 | (0 << 2), 0 | (3 << 2)},
-                                               {2 | (3 << 2), 3 | (1 << 2), 1 | (3 << 2), 0 | (2 << 2)}};
-  std::uint32_t key = 0, state = 0;
-  for (int level = 15; level >= 0; --level) {
-    const std::uint32_t quad = (((ix >> level) & 1u) << 1) | ((iy >> level) & 1u);
-    const std::uint8_t e = kNext[state][quad];
-    key = (key << 2) | (e & 3u);
-    state = e >> 2;
-  }
-  return key;
-}
-
 namespace {
 
 /// A well-mixed 64-bit hash of a point's coordinates (splitmix64 finaliser): equal points get equal
@@ -277,7 +256,7 @@ void brioHilbertSort(const double* xy, std::vector<index_t>& positions) {
   const double inv = ext > 0 ? 1.0 / ext : 0.0;
   // Biased randomised insertion order (Amenta, Choi, Rote 2003): round r holds about n / 2^(R-r) points
   // (the last round half of them), each round in Hilbert order. Pure curve order leaves long thin
-  // triangles along the front of the inserted region, which made cavities ~50% larger here.
+  // triangles along the front of the inserted region, which makes cavities ~50% larger.
   int rounds = 1;
   while (rounds < 20 && (n >> rounds) > 1024) ++rounds;
   std::vector<std::uint64_t> a(n), b(n);
@@ -288,7 +267,7 @@ void brioHilbertSort(const double* xy, std::vector<index_t>& positions) {
     while (tz < rounds - 1 && !((h >> tz) & 1u)) ++tz;
     const std::uint64_t round = std::uint64_t(rounds - 1 - tz);
     // 13 bits per axis: with 5 bits of round the key fills the upper 32 bits; the lower 32 hold p.
-    const std::uint64_t hk = hilbertKey(X(p), Y(p), x0, y0, inv, inv) >> 6;
+    const std::uint64_t hk = dw::hilbertKey(X(p), Y(p), x0, y0, inv, inv) >> 6;
     a[i] = (((round << 26) | hk) << 32) | p;
   }
   // LSD radix sort on the upper 32 bits, 8 bits per pass: stable, so equal keys keep input order.

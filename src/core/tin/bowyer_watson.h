@@ -60,10 +60,8 @@ class BowyerWatson {
   std::vector<std::pair<index_t, index_t>> by_u_;
 };
 
-/// 32-bit Hilbert key of (x, y) in the box [x0, x0 + sx] x [y0, y0 + sy] (16 bits per axis).
-std::uint32_t hilbertKey(double x, double y, double x0, double y0, double inv_sx, double inv_sy);
-
-/// Insertion order for Bowyer-Watson: biased randomised rounds (BRIO), Hilbert order within a round.
+/// Insertion order for Bowyer-Watson: biased randomised rounds (BRIO), Hilbert order within a round
+/// (dw::hilbertKey, space_filling_curve.h).
 /// Positions index interleaved xy. Stable for equal points (same round, same key), so copies of a point
 /// stay in input order and the first copy inserted is the one with the smallest rank.
 void brioHilbertSort(const double* xy, std::vector<index_t>& positions);

@@ -3,8 +3,8 @@
 /// are complete, by the worker that completed the second one.
 ///
 /// Why not a fixed tree merged level by level: every leaf of a balanced tree over K strips is log2 K
-/// merges below the root, so after the last strip finishes, log2 K merges (~5–7 ms each at 2M points on
-/// the device) still ran one after the other while the other workers idled. Merging greedily, the last
+/// merges below the root, so after the last strip finishes, log2 K merges would run one after the other
+/// while the other workers idle (docs/tin.md, "Merge order", has the times). Merging greedily, the last
 /// strip usually finds both neighbours already merged into one group each: at most two merges remain.
 /// The triangles do not depend on the merge order (the perturbed Delaunay triangulation is unique);
 /// only the arena slots they land in, hence their order in the output array, may differ between runs.

@@ -94,8 +94,8 @@ inline std::uint64_t edgeKey(index_t a, index_t b) {
 }
 
 /// The walls as an open-addressing hash map from directed edge to the corner of the sure triangle
-/// across it. Every edge of DT(V_U) is looked up once; a sorted array with binary search made those
-/// lookups half of the merge's own time.
+/// across it. Every edge of DT(V_U) is looked up once; with a sorted array and binary search those
+/// lookups are half of the merge's own time.
 class WallTable {
  public:
   explicit WallTable(std::size_t walls) {
@@ -135,28 +135,20 @@ class WallTable {
   std::vector<index_t> corners_;
 };
 
-}  // namespace
+/// The band vertices V_U (with the loose vertices of groups without triangles) and the band-to-sure
+/// boundary edges E_b ("walls"), keyed by their direction as seen from the band side (the side on which
+/// DT(V_U) will hold the same directed edge), each with the corner of the sure triangle across it.
+struct BandBoundary {
+  std::vector<index_t> verts;
+  std::vector<std::pair<std::uint64_t, index_t>> walls;
+};
 
-Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam, Group&& a, Group&& b,
-                  std::size_t* band_points) {
-  if (a.num_vertices == 0) {
-    b.strip_begin = a.strip_begin;
-    return std::move(b);
-  }
-  if (b.num_vertices == 0) {
-    a.strip_end = b.strip_end;
-    return std::move(a);
-  }
-  index_t* tv = arena.tv;
-  index_t* tn = arena.tn;
-  const std::vector<index_t> band_a = collectBand(ps, tv, tn, a, axis, seam, true);
-  const std::vector<index_t> band_b = collectBand(ps, tv, tn, b, axis, seam, false);
-
-  // Band vertices and the band-to-sure boundary edges E_b, keyed by their direction as seen from the
-  // band side (the side on which DT(V_U) will hold the same directed edge).
-  std::vector<index_t> verts(a.loose);
+BandBoundary bandBoundary(const index_t* tv, const index_t* tn, const Group& a, const Group& b,
+                          const std::vector<index_t>& band_a, const std::vector<index_t>& band_b) {
+  BandBoundary out;
+  std::vector<index_t>& verts = out.verts;
+  verts = a.loose;
   verts.insert(verts.end(), b.loose.begin(), b.loose.end());
-  std::vector<std::pair<std::uint64_t, index_t>> walls;  // (edge key, corner of the sure triangle)
   for (const std::vector<index_t>* band : {&band_a, &band_b})
     for (const index_t t : *band) {
       for (index_t i = 0; i < 3; ++i) {
@@ -166,46 +158,45 @@ Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam
         if (!(tv[3 * (nc / 3)] & kMark)) {
           const index_t u0 = tv[3 * t + next3(i)] & ~kMark, u1 = tv[3 * t + prev3(i)] & ~kMark;
           if (u0 == kGhost || u1 == kGhost) mergeError("ghost edge on the band boundary");
-          walls.emplace_back(edgeKey(u0, u1), nc);
+          out.walls.emplace_back(edgeKey(u0, u1), nc);
         }
       }
     }
   std::sort(verts.begin(), verts.end());
   verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-  WallTable wall_table(walls.size());
-  for (const auto& w : walls)
-    if (!wall_table.insert(w.first, w.second)) mergeError("band boundary edge seen twice");
-  if (band_points) *band_points += verts.size();
+  return out;
+}
 
-  // DT(V_U) in a private arena, on the same global positions and ranks.
-  detail::brioHilbertSort(ps.xy, verts);
-  const std::size_t cap = 2 * verts.size() + 2;
-  std::vector<index_t> tv2(3 * cap), tn2(3 * cap);
-  BowyerWatson kernel(ps, TriangleArena{tv2.data(), tn2.data()}, 0, static_cast<index_t>(cap));
-  kernel.run(verts.data(), verts.size());
-  if (!kernel.duplicates().empty()) mergeError("duplicate band vertices");
-
+/// The group of a and b before the band is stitched in: their strips and vertices, and their free
+/// slots. The larger list is moved, not copied (the lists hold the strips' unused slots, two per
+/// duplicate point, and grow towards the root of the reduce).
+Group joinGroups(Group& a, Group& b) {
   Group out;
   out.strip_begin = a.strip_begin;
   out.strip_end = b.strip_end;
   out.num_vertices = a.num_vertices + b.num_vertices;
-  // Free slots: the larger list is moved, not copied (the lists hold the strips' unused slots, two per
-  // duplicate point, and grow towards the root of the reduce).
   if (a.free_slots.size() < b.free_slots.size()) std::swap(a.free_slots, b.free_slots);
   out.free_slots = std::move(a.free_slots);
   out.free_slots.insert(out.free_slots.end(), b.free_slots.begin(), b.free_slots.end());
-  if (!kernel.hasTriangles()) {
-    if (a.has_triangles || b.has_triangles) mergeError("band lost its triangles");
-    out.free_slots.insert(out.free_slots.end(), band_a.begin(), band_a.end());
-    out.free_slots.insert(out.free_slots.end(), band_b.begin(), band_b.end());
-    out.loose = kernel.collinearVertices();
-    return out;
-  }
+  return out;
+}
 
-  // Classify DT(V_U): 2 = band side of a wall (kept), 1 = covered by sure triangles (dropped).
-  const index_t used = kernel.used();
-  std::vector<unsigned char> state(used, 0);
-  std::vector<index_t> wall_of(3 * static_cast<std::size_t>(used), kNoCorner);
+/// DT(V_U)'s triangles [0, used) classified: state 2 = band side of a wall (kept), 1 = covered by sure
+/// triangles (dropped), 0 = kept, not on a wall; wall_of[corner] = the sure triangle's corner across it.
+struct BandClassification {
+  std::vector<unsigned char> state;
+  std::vector<index_t> wall_of;
+};
+
+/// Each wall found in DT(V_U) marks its band side kept and seeds the covered region on its other side;
+/// the covered region is then flooded without crossing a wall.
+BandClassification classifyBand(const index_t* tv2, const index_t* tn2, index_t used,
+                                const WallTable& wall_table, std::size_t walls) {
+  BandClassification cls;
+  std::vector<unsigned char>& state = cls.state;
+  std::vector<index_t>& wall_of = cls.wall_of;
+  state.assign(used, 0);
+  wall_of.assign(3 * static_cast<std::size_t>(used), kNoCorner);
   std::vector<index_t> flood;
   std::size_t walls_found = 0;
   for (index_t t = 0; t < used; ++t) {
@@ -219,7 +210,7 @@ Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam
       if (state[t] == 1) mergeError("triangle on both sides of the band boundary");
       state[t] = 2;
       const index_t n = tn2[3 * t + i] / 3;
-      if (isGhost(tv2.data(), n)) mergeError("sure side of a wall is outside the hull");
+      if (isGhost(tv2, n)) mergeError("sure side of a wall is outside the hull");
       if (state[n] == 2) mergeError("wall between two band triangles");
       if (state[n] == 0) {
         state[n] = 1;
@@ -227,7 +218,7 @@ Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam
       }
     }
   }
-  if (walls_found != walls.size()) mergeError("a band boundary edge is not Delaunay in the band");
+  if (walls_found != walls) mergeError("a band boundary edge is not Delaunay in the band");
   while (!flood.empty()) {
     const index_t t = flood.back();
     flood.pop_back();
@@ -237,22 +228,23 @@ Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam
       if (wall_of[nc] != kNoCorner) continue;  // a wall seen from its sure side
       const index_t n = nc / 3;
       if (state[n] == 1) continue;
-      if (state[n] == 2 || isGhost(tv2.data(), n)) mergeError("covered region leaks into the band");
+      if (state[n] == 2 || isGhost(tv2, n)) mergeError("covered region leaks into the band");
       state[n] = 1;
       flood.push_back(n);
     }
   }
+  return cls;
+}
 
-  // Euler: the merged triangulation (ghosts included) has 2V - 2 triangles; the sure ones stay.
-  std::size_t keep = 0;
-  for (index_t t = 0; t < used; ++t) keep += state[t] != 1;
-  const std::size_t sure_a = a.has_triangles ? 2 * a.num_vertices - 2 - band_a.size() : 0;
-  const std::size_t sure_b = b.has_triangles ? 2 * b.num_vertices - 2 - band_b.size() : 0;
-  if (keep + sure_a + sure_b != 2 * out.num_vertices - 2) mergeError("triangle count (Euler) mismatch");
-  if (keep > band_a.size() + band_b.size() + out.free_slots.size()) mergeError("not enough slots");
-
-  // The kept triangles go into the band's own slots first (just read, so in cache, and near the seam),
-  // then (Euler: two more than the band had) into free slots taken from the back of the list.
+/// The kept triangles of DT(V_U) copied into the arena and linked to each other and, across the walls,
+/// to the sure triangles. They go into the band's own slots first (just read, so in cache, and near the
+/// seam), then (Euler: two more than the band had) into free slots taken from the back of out's list;
+/// band slots left over become free.
+void stitchKept(index_t* tv, index_t* tn, const index_t* tv2, const index_t* tn2, index_t used,
+                const BandClassification& cls, const std::vector<index_t>& band_a,
+                const std::vector<index_t>& band_b, Group& out) {
+  const std::vector<unsigned char>& state = cls.state;
+  const std::vector<index_t>& wall_of = cls.wall_of;
   std::vector<index_t> slot(used, kDead);
   std::size_t next = 0;
   const std::size_t band_slots = band_a.size() + band_b.size();
@@ -270,7 +262,7 @@ Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam
     if (state[t] == 1) continue;
     const index_t s = slot[t];
     for (index_t i = 0; i < 3; ++i) tv[3 * s + i] = tv2[3 * t + i];
-    if (isGhost(tv2.data(), t)) out.ghost = s;
+    if (isGhost(tv2, t)) out.ghost = s;
     for (index_t i = 0; i < 3; ++i) {
       const index_t w = wall_of[3 * t + i];
       if (w != kNoCorner) {
@@ -288,6 +280,60 @@ Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam
     tv[3 * f] = kDead;
     out.free_slots.push_back(f);
   }
+}
+
+}  // namespace
+
+Group mergeGroups(const PointSet& ps, TriangleArena arena, int axis, double seam, Group&& a, Group&& b,
+                  std::size_t* band_points) {
+  if (a.num_vertices == 0) {
+    b.strip_begin = a.strip_begin;
+    return std::move(b);
+  }
+  if (b.num_vertices == 0) {
+    a.strip_end = b.strip_end;
+    return std::move(a);
+  }
+  index_t* tv = arena.tv;
+  index_t* tn = arena.tn;
+  const std::vector<index_t> band_a = collectBand(ps, tv, tn, a, axis, seam, true);
+  const std::vector<index_t> band_b = collectBand(ps, tv, tn, b, axis, seam, false);
+  BandBoundary boundary = bandBoundary(tv, tn, a, b, band_a, band_b);
+  std::vector<index_t>& verts = boundary.verts;
+  WallTable wall_table(boundary.walls.size());
+  for (const auto& w : boundary.walls)
+    if (!wall_table.insert(w.first, w.second)) mergeError("band boundary edge seen twice");
+  if (band_points) *band_points += verts.size();
+
+  // DT(V_U) in a private arena, on the same global positions and ranks.
+  detail::brioHilbertSort(ps.xy, verts);
+  const std::size_t cap = 2 * verts.size() + 2;
+  std::vector<index_t> tv2(3 * cap), tn2(3 * cap);
+  BowyerWatson kernel(ps, TriangleArena{tv2.data(), tn2.data()}, 0, static_cast<index_t>(cap));
+  kernel.run(verts.data(), verts.size());
+  if (!kernel.duplicates().empty()) mergeError("duplicate band vertices");
+
+  Group out = joinGroups(a, b);
+  if (!kernel.hasTriangles()) {
+    if (a.has_triangles || b.has_triangles) mergeError("band lost its triangles");
+    out.free_slots.insert(out.free_slots.end(), band_a.begin(), band_a.end());
+    out.free_slots.insert(out.free_slots.end(), band_b.begin(), band_b.end());
+    out.loose = kernel.collinearVertices();
+    return out;
+  }
+  const index_t used = kernel.used();
+  const BandClassification cls =
+      classifyBand(tv2.data(), tn2.data(), used, wall_table, boundary.walls.size());
+
+  // Euler: the merged triangulation (ghosts included) has 2V - 2 triangles; the sure ones stay.
+  std::size_t keep = 0;
+  for (index_t t = 0; t < used; ++t) keep += cls.state[t] != 1;
+  const std::size_t sure_a = a.has_triangles ? 2 * a.num_vertices - 2 - band_a.size() : 0;
+  const std::size_t sure_b = b.has_triangles ? 2 * b.num_vertices - 2 - band_b.size() : 0;
+  if (keep + sure_a + sure_b != 2 * out.num_vertices - 2) mergeError("triangle count (Euler) mismatch");
+  if (keep > band_a.size() + band_b.size() + out.free_slots.size()) mergeError("not enough slots");
+
+  stitchKept(tv, tn, tv2.data(), tn2.data(), used, cls, band_a, band_b, out);
   out.has_triangles = true;
   if (out.ghost == kDead) mergeError("merged triangulation has no hull");
   return out;

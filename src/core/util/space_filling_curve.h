@@ -58,4 +58,29 @@ inline std::vector<Vec3f> mortonSortedDistinct(const std::vector<Vec3f>& p) {
   return out;
 }
 
+/// 32-bit Hilbert key of (x, y) in the box [x0, x0 + sx] x [y0, y0 + sy] (16 bits per axis), clamped to
+/// the box. The 2D TIN's insertion order (brioHilbertSort) sorts by it within each BRIO round.
+inline std::uint32_t hilbertKey(double x, double y, double x0, double y0, double inv_sx, double inv_sy) {
+  constexpr double kMax = 65535.0;
+  const double fx = std::min(kMax, std::max(0.0, (x - x0) * inv_sx * kMax));
+  const double fy = std::min(kMax, std::max(0.0, (y - y0) * inv_sy * kMax));
+  std::uint32_t ix = static_cast<std::uint32_t>(fx), iy = static_cast<std::uint32_t>(fy);
+  // Table-driven Hilbert curve: a 4-state machine, two bits of the key per level. kNext[state][quad]
+  // packs the output digit (low 2 bits) and the next state (bits 2-3); quad = 2 * xbit + ybit.
+  // States: 0 identity, 1 transposed, 2 anti-transposed, 3 rotated by 180 degrees (checked against
+  // the classic rotate-and-flip formulation in the tests).
+  static constexpr std::uint8_t kNext[4][4] = {{0 | (1 << 2), 1 | (0 << 2), 3 | (2 << 2), 2 | (0 << 2)},
+                                               {0 | (0 << 2), 3 | (3 << 2), 1 | (1 << 2), 2 | (1 << 2)},
+                                               {2 | (2 << 2), 1 | (2 << 2), 3 | (0 << 2), 0 | (3 << 2)},
+                                               {2 | (3 << 2), 3 | (1 << 2), 1 | (3 << 2), 0 | (2 << 2)}};
+  std::uint32_t key = 0, state = 0;
+  for (int level = 15; level >= 0; --level) {
+    const std::uint32_t quad = (((ix >> level) & 1u) << 1) | ((iy >> level) & 1u);
+    const std::uint8_t e = kNext[state][quad];
+    key = (key << 2) | (e & 3u);
+    state = e >> 2;
+  }
+  return key;
+}
+
 }  // namespace dw

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/tin/bowyer_watson.h"
+#include "core/util/space_filling_curve.h"
 
 namespace {
 
@@ -16,7 +17,7 @@ TEST(HilbertOrder, ConsecutiveKeysAreNeighbours) {
   std::vector<int> cell_of(65536, -1);
   for (int x = 0; x < 256; ++x)
     for (int y = 0; y < 256; ++y) {
-      const std::uint32_t k = dw::tin::detail::hilbertKey(x + 0.5, y + 0.5, 0.0, 0.0, inv, inv);
+      const std::uint32_t k = dw::hilbertKey(x + 0.5, y + 0.5, 0.0, 0.0, inv, inv);
       ASSERT_LT(k, 65536u);
       ASSERT_EQ(cell_of[k], -1);
       cell_of[k] = x * 256 + y;
