@@ -25,9 +25,9 @@
 #include <nanoflann.hpp>
 #endif
 
-using pcl::gpu::checkCuda;
-using pcl::gpu::DelaunayWalk;
-using pcl::gpu::DeviceArray;
+using dw::gpu::checkCuda;
+using dw::gpu::DelaunayWalk;
+using dw::gpu::DeviceBuffer;
 using Clock = std::chrono::steady_clock;
 
 namespace {
@@ -144,11 +144,11 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
     q_prev[i] = moved(graph.points[i], 0.010f, 0.0010f);
     q[i] = moved(graph.points[i], 0.008f, 0.0008f);
   }
-  DeviceArray<float4> dq_prev, dq;
+  DeviceBuffer<float4> dq_prev, dq;
   dq_prev.upload(q_prev);
   dq.upload(q);
-  DeviceArray<std::uint32_t> hints(n), verts(n), steps(n), truth_v(n);
-  DeviceArray<float> d2(n), truth_d2(n);
+  DeviceBuffer<std::uint32_t> hints(n), verts(n), steps(n), truth_v(n);
+  DeviceBuffer<float> d2(n), truth_d2(n);
   walk.nearest(dq_prev.ptr(), n, nullptr, hints.ptr(), d2.ptr());
   const int bf_reps = n > 200000 ? 3 : 10;
   const double bf =
@@ -237,8 +237,8 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
   walk.setGroupSize(best_lanes);
   row("GPU brute force (own kernel)", bf, "reference");
   {
-    DeviceArray<std::uint32_t> idx, cnt;
-    DeviceArray<float> dd;
+    DeviceBuffer<std::uint32_t> idx, cnt;
+    DeviceBuffer<float> dd;
     for (unsigned k : {8u, 16u}) {
       const double t = timeGpu([&] { walk.knn(dq, k, &hints, idx, dd, cnt); }, 10);
       row("GPU kNN k=" + std::to_string(k) + ", PNN hints", t, "");
@@ -305,7 +305,7 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
 
   // Whole GPU ICP: the cloud (input order, world frame) moved by a known motion, registered back.
   {
-    pcl::gpu::IcpParameters p;
+    dw::gpu::IcpParameters p;
     p.max_iterations = 30;
     p.max_correspondence_distance = 0.01;
     p.transformation_epsilon = 1e-10;
@@ -313,7 +313,7 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
     auto target = std::make_shared<DelaunayWalk>(graph);
     target->setGroupSize(best_lanes);  // the ICP walk uses the target's tile width and layout
     target->setInlineNeighbourPositions(best_layout == 1);
-    pcl::gpu::IterativeClosestPoint icp(target);
+    dw::gpu::IterativeClosestPoint icp(target);
     icp.setParameters(p);
     std::vector<double> src(xyz.size());
     const double ang = 0.05, c = std::cos(ang), s = std::sin(ang);
@@ -323,20 +323,20 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
       src[i + 2] = xyz[i + 2] + 0.001;
     }
     icp.setInputSource(dw::PointView::fromDouble(src.data(), src.size() / 3));
-    pcl::gpu::IcpResult res;
+    dw::gpu::IcpResult res;
     const double t = timeHost([&] { res = icp.align(); }, 20);
     char note[160];
     std::snprintf(note, sizeof note, "%d iterations (%s), %u correspondences, MSE %.2e, R00 %.6f",
-                  res.iterations, pcl::gpu::toString(res.state), res.correspondences, res.mse,
+                  res.iterations, dw::gpu::toString(res.state), res.correspondences, res.mse,
                   res.transformation[0]);
     row("GPU ICP align(), end to end (graph on device)", t, note);
     {  // per-iteration cost: exactly 30 iterations (no criterion can fire before max_iterations)
-      pcl::gpu::IcpParameters fixed = p;
+      dw::gpu::IcpParameters fixed = p;
       fixed.transformation_epsilon = -1.0;
       fixed.euclidean_fitness_epsilon = -1.0;
       fixed.mse_threshold_absolute = -1.0;
       icp.setParameters(fixed);
-      pcl::gpu::IcpResult r30;
+      dw::gpu::IcpResult r30;
       const double t30 = timeHost([&] { r30 = icp.align(); }, 10);
       char n30[96];
       std::snprintf(n30, sizeof n30, "%d iterations: %.1f us per iteration", r30.iterations,
@@ -349,12 +349,12 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
     std::vector<std::vector<double>> srcs(kBatch, src);
     for (int b = 0; b < kBatch; ++b)
       for (std::size_t i = 0; i + 2 < xyz.size(); i += 3) srcs[b][i] += 0.0005 * b;
-    pcl::gpu::IterativeClosestPoint batch(target);
+    dw::gpu::IterativeClosestPoint batch(target);
     batch.setParameters(p);
-    std::vector<std::unique_ptr<pcl::gpu::IterativeClosestPoint>> singles;
+    std::vector<std::unique_ptr<dw::gpu::IterativeClosestPoint>> singles;
     for (auto& sb : srcs) {
       batch.addSource(dw::PointView::fromDouble(sb.data(), sb.size() / 3));
-      singles.push_back(std::make_unique<pcl::gpu::IterativeClosestPoint>(target));
+      singles.push_back(std::make_unique<dw::gpu::IterativeClosestPoint>(target));
       singles.back()->setParameters(p);
       singles.back()->setInputSource(dw::PointView::fromDouble(sb.data(), sb.size() / 3));
     }
@@ -374,7 +374,7 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
 int main(int argc, char** argv) {
   const std::string dir = argc > 1 ? argv[1] : "../shared/data/models";
   if (argc > 2) g_reps = std::max(3, std::atoi(argv[2]));
-  if (pcl::gpu::cudaDeviceCount() == 0) {
+  if (dw::gpu::cudaDeviceCount() == 0) {
     std::printf("no CUDA device: nothing to measure\n");
     return 0;
   }

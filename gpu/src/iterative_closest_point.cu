@@ -1,4 +1,4 @@
-// pcl::gpu::IterativeClosestPoint: the device-resident ICP loop (see the header for the design).
+// dw::gpu::IterativeClosestPoint: the device-resident ICP loop (see the header for the design).
 #include <algorithm>
 #include <cstring>
 #include <numeric>
@@ -9,7 +9,7 @@
 #include "pcl_delaunay_walk/gpu/rigid_transform.h"
 #include "walk_device.cuh"
 
-namespace pcl {
+namespace dw {
 namespace gpu {
 namespace {
 
@@ -317,7 +317,7 @@ const char* toString(ConvergenceState s) {
 }
 
 IterativeClosestPoint::IterativeClosestPoint(DelaunayWalk::ConstPtr target) : target_(std::move(target)) {
-  if (!target_) throw dw::Error("pcl::gpu::IterativeClosestPoint: null target");
+  if (!target_) throw dw::Error("dw::gpu::IterativeClosestPoint: null target");
   checkCuda(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
   for (auto& e : events_) checkCuda(cudaEventCreateWithFlags(&e, cudaEventDisableTiming), "cudaEventCreate");
   void* p = nullptr;
@@ -339,10 +339,10 @@ IterativeClosestPoint::~IterativeClosestPoint() {
 
 void IterativeClosestPoint::setParameters(const IcpParameters& p) {
   if (!(p.max_correspondence_distance >= 0.0))
-    throw dw::Error("pcl::gpu::IterativeClosestPoint: max_correspondence_distance must be >= 0");
+    throw dw::Error("dw::gpu::IterativeClosestPoint: max_correspondence_distance must be >= 0");
   if (std::isnan(p.transformation_epsilon) || std::isnan(p.transformation_rotation_epsilon) ||
       std::isnan(p.euclidean_fitness_epsilon) || std::isnan(p.mse_threshold_absolute))
-    throw dw::Error("pcl::gpu::IterativeClosestPoint: NaN threshold");
+    throw dw::Error("dw::gpu::IterativeClosestPoint: NaN threshold");
   params_ = p;
 }
 
@@ -365,7 +365,7 @@ std::size_t IterativeClosestPoint::addSource(const dw::PointView& source) {
     if (std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])) pts.push_back(p);
   }
   if (host_points_.size() + pts.size() >= kInvalid)
-    throw dw::Error("pcl::gpu::IterativeClosestPoint: sources too large for 32-bit device indices");
+    throw dw::Error("dw::gpu::IterativeClosestPoint: sources too large for 32-bit device indices");
   HostSource hs;
   hs.begin = host_points_.size();
   hs.size = pts.size();
@@ -437,15 +437,15 @@ void IterativeClosestPoint::uploadLayout() {
 IcpResult IterativeClosestPoint::align(const Matrix4d& guess) {
   if (sources_.size() != 1)
     throw dw::Error(
-        "pcl::gpu::IterativeClosestPoint::align: needs exactly one source (use alignAll for a batch)");
+        "dw::gpu::IterativeClosestPoint::align: needs exactly one source (use alignAll for a batch)");
   return alignAll({guess}).front();
 }
 
 std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4d>& guesses) {
   const std::size_t ns = sources_.size();
-  if (ns == 0) throw dw::Error("pcl::gpu::IterativeClosestPoint: no source set");
+  if (ns == 0) throw dw::Error("dw::gpu::IterativeClosestPoint: no source set");
   if (!guesses.empty() && guesses.size() != ns)
-    throw dw::Error("pcl::gpu::IterativeClosestPoint::alignAll: one guess per source, or none");
+    throw dw::Error("dw::gpu::IterativeClosestPoint::alignAll: one guess per source, or none");
   if (dirty_) uploadLayout();
   const auto& o = target_->origin();
 
@@ -453,7 +453,7 @@ std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4
   for (std::size_t s = 0; s < ns; ++s) {
     const Matrix4d g = guesses.empty() ? identityMatrix4d() : guesses[s];
     for (double x : g)
-      if (!std::isfinite(x)) throw dw::Error("pcl::gpu::IterativeClosestPoint: non-finite initial guess");
+      if (!std::isfinite(x)) throw dw::Error("dw::gpu::IterativeClosestPoint: non-finite initial guess");
     SourceState& st = init[s];
     std::memset(&st, 0, sizeof st);
     const double* c = sources_[s].centroid;
@@ -576,4 +576,4 @@ std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4
 }
 
 }  // namespace gpu
-}  // namespace pcl
+}  // namespace dw

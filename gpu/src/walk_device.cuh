@@ -8,7 +8,7 @@
 
 #include "pcl_delaunay_walk/gpu/delaunay_walk.h"
 
-namespace pcl {
+namespace dw {
 namespace gpu {
 namespace detail {
 
@@ -202,4 +202,4 @@ __device__ __forceinline__ std::uint32_t walkThread(const DeviceGraphView& g, fl
 
 }  // namespace detail
 }  // namespace gpu
-}  // namespace pcl
+}  // namespace dw

@@ -50,7 +50,7 @@ struct Case {
   const char* name;
   Cloud::Ptr target, source;
   Eigen::Matrix4f guess;
-  pcl::gpu::IcpParameters p;
+  dw::gpu::IcpParameters p;
 };
 
 /// Runs the CPU class with the given Scalar and the GPU loop on the same clouds; `bar` is the largest
@@ -71,7 +71,7 @@ void runCase(const Case& c, double bar) {
   const Eigen::Matrix4d pcl_t = cpu.getFinalTransformation().template cast<double>();
   const auto pcl_state = cpu.getConvergeCriteria()->getConvergenceState();
   const int pcl_iterations = cpu.iterations();
-  const pcl::gpu::IcpParameters p = pcl::gpu::parametersFrom(cpu);  // the same settings, read off PCL
+  const dw::gpu::IcpParameters p = pcl::gpu::parametersFrom(cpu);  // the same settings, read off PCL
 
   // Host reference (PCL's rules, double arithmetic except where PCL's float matters).
   const std::vector<double> txyz = toXyz(*c.target), sxyz = toXyz(*c.source);
@@ -85,16 +85,16 @@ void runCase(const Case& c, double bar) {
       "[%s] PCL<%s> (CPU walk): %d iterations (state %d, converged %d); reference: %d iterations (%s); "
       "max |reference - PCL| %.2e\n",
       c.name, scalar, pcl_iterations, int(pcl_state), int(cpu.hasConverged()), ref.iterations,
-      pcl::gpu::toString(ref.state), ref_diff);
+      dw::gpu::toString(ref.state), ref_diff);
   EXPECT_LT(ref_diff, bar) << c.name << " " << scalar << ": the host reference no longer follows PCL";
   EXPECT_EQ(ref.converged, cpu.hasConverged()) << c.name << " " << scalar;
 
-  if (pcl::gpu::cudaDeviceCount() == 0) {
+  if (dw::gpu::cudaDeviceCount() == 0) {
     std::printf("[%s] no CUDA device: GPU half not run\n", c.name);
     return;
   }
-  auto walk = std::make_shared<pcl::gpu::DelaunayWalk>(*graph);
-  pcl::gpu::IterativeClosestPoint gpu(walk);
+  auto walk = std::make_shared<dw::gpu::DelaunayWalk>(*graph);
+  dw::gpu::IterativeClosestPoint gpu(walk);
   gpu.setParameters(p);
   Eigen::Matrix4f gpu_t;
   const auto r = pcl::gpu::align(gpu, *c.source, c.guess, gpu_t);
@@ -102,7 +102,7 @@ void runCase(const Case& c, double bar) {
   const double diff = (gd - pcl_t).cwiseAbs().maxCoeff();
   std::printf(
       "[%s] GPU: %d iterations (%s), %u correspondences; max |GPU - PCL<%s>| %.2e, |GPU - reference| %.2e\n",
-      c.name, r.iterations, pcl::gpu::toString(r.state), r.correspondences, scalar, diff,
+      c.name, r.iterations, dw::gpu::toString(r.state), r.correspondences, scalar, diff,
       (gd - ref.transformation).cwiseAbs().maxCoeff());
   for (int i = 0; i < 4; ++i)
     for (int j = 0; j < 4; ++j)
