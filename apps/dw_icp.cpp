@@ -308,7 +308,8 @@ void moveSource(Cloud::Ptr& source, const Options& o) {
 }
 
 /// Reads both clouds, applies --voxel and the source motion, and prints their sizes.
-void readInputs(const std::vector<std::string>& files, const Options& o, Cloud::Ptr& source, Cloud::Ptr& target) {
+void readInputs(const std::vector<std::string>& files, const Options& o, Cloud::Ptr& source,
+                Cloud::Ptr& target) {
   source = loadCloud(files[0]);
   target = loadCloud(files[1]);
   if (o.voxel > 0.f) voxelFilter(source, target, o);

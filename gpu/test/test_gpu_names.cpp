@@ -7,12 +7,12 @@
 #include <string>
 #include <type_traits>
 
-#include "pcl_gpu_device_array.h"  // before ours: PCL's class must not be redeclared by what follows
 #include "pcl_delaunay_walk/gpu/cuda_check.h"
 #include "pcl_delaunay_walk/gpu/delaunay_walk.h"
 #include "pcl_delaunay_walk/gpu/device_buffer.h"
 #include "pcl_delaunay_walk/gpu/iterative_closest_point.h"
 #include "pcl_delaunay_walk/gpu/rigid_transform.h"
+#include "pcl_gpu_device_array.h"  // before ours: PCL's class must not be redeclared by what follows
 
 namespace {
 
@@ -22,7 +22,8 @@ TEST(GpuNames, DeviceBufferAndPclDeviceArrayShareOneTranslationUnit) {
   dw::gpu::DeviceBuffer<float> ours;  // no allocation until create(): runs without a device
   EXPECT_TRUE(ours.empty());
   EXPECT_EQ(ours.ptr(), nullptr);
-  if (!DW_TEST_HAVE_PCL_GPU_CONTAINERS) std::printf("PCL's GPU containers not installed: checked against a stand-in\n");
+  if (!DW_TEST_HAVE_PCL_GPU_CONTAINERS)
+    std::printf("PCL's GPU containers not installed: checked against a stand-in\n");
 }
 
 TEST(GpuNames, CudaErrorIsTheProjectsError) {
