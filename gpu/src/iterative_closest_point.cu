@@ -142,8 +142,7 @@ __device__ void solveStep(SourceState& st, const double* acc, const SolveParams&
 /// source's current estimate and walked to its exact nearest target vertex from the previous answer
 /// (PNN). The same lean kernel shape as DelaunayWalk::nearest (G lanes per query, ~32 registers), so
 /// as many walks are in flight as there: the reduction lives in the next kernel, because fused here it
-/// raised the registers and cut the walks in flight ~3x (measured 75 us per iteration instead of ~25
-/// on the 100k dragon, docs/gpu.md).
+/// raised the registers and cut the walks in flight ~3x, an iteration about 3x slower (docs/gpu.md).
 constexpr int kWalkBlock = 128;  // as DelaunayWalk::nearest: 44 registers fit 11 such blocks per SM
 
 template <int G>

@@ -138,7 +138,7 @@ __device__ __forceinline__ void scanNeighbours(const Tile& tile, const DeviceGra
 
 /// The walk with G lanes of a tile scanning one neighbourhood together (G = 1: one thread per query).
 /// Moves to a strictly nearer neighbour while one exists: exact (a non-nearest vertex always has a
-/// strictly nearer Delaunay neighbour, DESIGN.md §3) and terminating (the distance strictly
+/// strictly nearer Delaunay neighbour, docs/architecture.md) and terminating (the distance strictly
 /// decreases). Every lane of the tile returns the same result.
 ///
 /// Two shortcuts keep it exact:

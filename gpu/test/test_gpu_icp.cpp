@@ -51,7 +51,7 @@ Eigen::Matrix4d motion(double angle, const Eigen::Vector3d& axis, const Eigen::V
   return m;
 }
 
-/// GPU result against the host reference: element-wise within 1e-4 (the bar).
+/// GPU result against the host reference: element-wise within 1e-4 (the module's bar, docs/gpu.md).
 void expectSameAsReference(const Target& target, const std::vector<double>& source, const IcpParameters& p,
                            const Eigen::Matrix4d& guess, const char* what) {
   const auto ref = dwgpu_test::referenceIcp(*target.cpu, source, p, guess);

@@ -1,5 +1,5 @@
 // The GPU ICP against the CPU pcl::IterativeClosestPointDelaunayWalk (stock PCL ICP with the walk),
-// in one process, on the bunny scans, the dragon and the LiDAR frame pair: the bar is the same
+// in one process, on the bunny scans, the dragon and the LiDAR frame pair: the bar is the same
 // final transform element-wise within 1e-4. Compiled only where PCL exists; the GPU half runs where a
 // CUDA device exists too (the device machine, through tools/device/bundle.sh). Without a device the
 // PCL half still checks the host reference (gpu/test/reference_icp.h, which the GPU loop equals to
@@ -54,7 +54,7 @@ struct Case {
 };
 
 /// Runs the CPU class with the given Scalar and the GPU loop on the same clouds; `bar` is the largest
-/// element-wise difference allowed (the 1e-4, except where PCL's own float arithmetic is
+/// element-wise difference allowed (the 1e-4 bar, except where PCL's own float arithmetic is
 /// known to be farther than that from exact: see the LiDAR case).
 template <typename Scalar>
 void runCase(const Case& c, double bar) {
@@ -176,7 +176,7 @@ TEST(GpuIcpVsPcl, LidarFramePair) {
   c.p.max_correspondence_distance = 1.0;
   c.p.transformation_epsilon = 1e-10;
   c.p.euclidean_fitness_epsilon = 1e-7;
-  // PCL<double> sums in double like the GPU: the bar applies.
+  // PCL<double> sums in double like the GPU: the 1e-4 bar applies.
   runCase<double>(c, 1e-4);
   // PCL<float> sums the centroids of ~69k points with coordinates of tens of metres sequentially in
   // float (pcl::compute3DCentroid): ~1e-4 m of error per step, 1.9e-4..4e-4 from exact arithmetic after

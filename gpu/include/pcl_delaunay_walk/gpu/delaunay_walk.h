@@ -7,7 +7,7 @@
 /// per directed edge, the neighbour index j (4 bytes instead of the core's 20-byte record), plus the
 /// neighbour's position inline where that fits L2. The walk compares squared distances
 /// |q - x_j|^2 < |q - x_i|^2 directly, which is the same exactness argument as the core's c > m test
-/// (DESIGN.md §3): in float where float decides with margin, otherwise in double from the float
+/// (docs/architecture.md, "Why the searches are exact"): in float where float decides with margin, otherwise in double from the float
 /// coordinates, the very comparison a brute-force search makes. Reported distances are the doubles
 /// rounded to float.
 #pragma once
