@@ -111,6 +111,8 @@ class IterativeClosestPoint {
     double centroid[3] = {0, 0, 0};   ///< device points are stored relative to it (float precision)
   };
   void uploadLayout();
+  /// Queues the iterations (walk, accumulate, solve) until every source is done or max_iterations.
+  void runIterations();
 
   DelaunayWalk::ConstPtr target_;
   IcpParameters params_;
