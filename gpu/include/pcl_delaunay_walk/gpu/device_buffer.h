@@ -1,5 +1,6 @@
 /// \file device_buffer.h
-/// \brief pcl_gpu-style owning device buffer: plain cudaMalloc (never managed memory), move-only,
+/// \brief dw::gpu::DeviceBuffer: owning device buffer in the manner of pcl_gpu's DeviceArray (a class of
+/// its own, so both can be included together): plain cudaMalloc (never managed memory), move-only,
 /// grows only when asked for more than it holds, so steady-state batch calls allocate nothing.
 #pragma once
 
@@ -59,11 +60,14 @@ class DeviceBuffer {
     if (n) checkCuda(cudaMemcpyAsync(ptr_, host, n * sizeof(T), cudaMemcpyHostToDevice, stream), "upload");
     if (!stream) checkCuda(cudaStreamSynchronize(nullptr), "upload");
   }
-  void upload(const std::vector<T>& host, cudaStream_t stream = nullptr) { upload(host.data(), host.size(), stream); }
+  void upload(const std::vector<T>& host, cudaStream_t stream = nullptr) {
+    upload(host.data(), host.size(), stream);
+  }
 
   /// Copies the first n elements out (waits for `stream`).
   void download(T* host, std::size_t n, cudaStream_t stream = nullptr) const {
-    if (n > size_) throw dw::Error("dw::gpu::DeviceBuffer::download: asked for more elements than the array holds");
+    if (n > size_)
+      throw dw::Error("dw::gpu::DeviceBuffer::download: asked for more elements than the buffer holds");
     if (n) checkCuda(cudaMemcpyAsync(host, ptr_, n * sizeof(T), cudaMemcpyDeviceToHost, stream), "download");
     checkCuda(cudaStreamSynchronize(stream), "download");
   }
