@@ -54,12 +54,15 @@ void usage() {
                "                [--threads N] [--quiet]\n");
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+struct Options {
   std::string input, output;
-  dw::BuildOptions options;
+  dw::BuildOptions build;
   bool quiet = false;
+};
+
+/// The command line into `o`. Returns -1 to go on, else the exit code (0 after --help, 2 on a usage
+/// error, reported here).
+int parseOptions(int argc, char** argv, Options& o) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
@@ -70,23 +73,23 @@ int main(int argc, char** argv) {
       return argv[++i];
     };
     if (a == "-o" || a == "--output") {
-      output = value();
+      o.output = value();
     } else if (a == "--builder") {
       const std::string b = value();
       if (b == "auto")
-        options.builder = dw::BuilderType::Auto;
+        o.build.builder = dw::BuilderType::Auto;
       else if (b == "qhull")
-        options.builder = dw::BuilderType::Qhull;
+        o.build.builder = dw::BuilderType::Qhull;
       else if (b == "incremental")
-        options.builder = dw::BuilderType::Incremental;
+        o.build.builder = dw::BuilderType::Incremental;
       else {
         std::fprintf(stderr, "dw_graph: unknown builder '%s'\n", b.c_str());
         return 2;
       }
     } else if (a == "--threads") {
-      options.num_threads = static_cast<unsigned>(std::strtoul(value().c_str(), nullptr, 10));
+      o.build.num_threads = static_cast<unsigned>(std::strtoul(value().c_str(), nullptr, 10));
     } else if (a == "--quiet") {
-      quiet = true;
+      o.quiet = true;
     } else if (a == "-h" || a == "--help") {
       usage();
       return 0;
@@ -94,76 +97,108 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "dw_graph: unknown option '%s'\n", a.c_str());
       usage();
       return 2;
-    } else if (input.empty()) {
-      input = a;
+    } else if (o.input.empty()) {
+      o.input = a;
     } else {
       std::fprintf(stderr, "dw_graph: more than one input given\n");
       return 2;
     }
   }
-  if (input.empty() || output.empty()) {
+  if (o.input.empty() || o.output.empty()) {
     usage();
     return 2;
   }
+  return -1;
+}
+
+using Stages = std::vector<std::pair<std::string, Clock::time_point>>;
+
+/// A built and saved graph with the times of its build stages.
+struct BuildRun {
+  dw::DelaunayGraph graph;
+  Stages stages;
+  Clock::time_point built;  ///< the end of the last stage, and where saving starts
+  double build_s = 0, save_s = 0;
+};
+
+/// Builds the graph of `cloud` and saves it. Progress on large inputs only: a line per stage and per
+/// 10%, on stderr so stdout stays parseable. Each stage's time runs from its first report to the next
+/// stage's (the last: to the end).
+BuildRun buildAndSave(const pcl::PointCloud<pcl::PointXYZ>& cloud, Options& o) {
+  BuildRun run;
+  const bool print_progress = !o.quiet && cloud.size() >= 200000;
+  Stages& stages = run.stages;
+  o.build.progress = [&, last = std::string(), tenth = -1](const std::string& stage, double f) mutable {
+    if (stages.empty() || stages.back().first != stage) stages.emplace_back(stage, Clock::now());
+    const int t = static_cast<int>(f * 10);
+    if (print_progress && (stage != last || t != tenth)) {
+      std::fprintf(stderr, "  [%s] %3d%%\n", stage.c_str(), t * 10);
+      last = stage;
+      tenth = t;
+    }
+  };
+  const auto t_build = Clock::now();
+  run.graph = cloud.empty()
+                  ? dw::buildDelaunayGraph(dw::PointView::fromFloat(nullptr, 0), o.build)
+                  : dw::buildDelaunayGraph(
+                        dw::PointView::fromFloat(&cloud[0].x, cloud.size(), sizeof(pcl::PointXYZ)), o.build);
+  o.build.progress = nullptr;  // it refers to this frame
+  run.built = Clock::now();
+  run.build_s = std::chrono::duration<double>(run.built - t_build).count();
+  dw::saveGraph(run.graph, o.output);
+  run.save_s = since(run.built);
+  return run;
+}
+
+/// The graph's statistics: skipped and collapsed points, degrees, memory, build stages, save time.
+void report(const pcl::PointCloud<pcl::PointXYZ>& cloud, const BuildRun& run, const Options& o) {
+  const dw::DelaunayGraph& g = run.graph;
+  std::size_t skipped = 0;
+  for (dw::index_t v : g.input_to_vertex) skipped += v == dw::kInvalidIndex ? 1 : 0;
+  std::vector<std::size_t> deg(g.numVertices());
+  for (std::size_t v = 0; v < deg.size(); ++v) deg[v] = g.degree(static_cast<dw::index_t>(v));
+  std::sort(deg.begin(), deg.end());
+  auto pct = [&](double p) {
+    return deg.empty() ? 0 : deg[std::min(deg.size() - 1, std::size_t(p * deg.size()))];
+  };
+  const double mean = deg.empty() ? 0.0 : double(g.numDirectedEdges()) / double(deg.size());
+  std::printf("non-finite   %zu (skipped)\n", skipped);
+  std::printf("vertices     %zu (%zu duplicate points collapsed)\n", g.numVertices(),
+              cloud.size() - skipped - g.numVertices());
+  std::printf("dimension    %d\n", g.dimension);
+  std::printf("edges        %zu undirected (%zu directed records)\n", g.numDirectedEdges() / 2,
+              g.numDirectedEdges());
+  std::printf("degree       min %zu  median %zu  mean %.2f  p99 %zu  max %zu\n",
+              deg.empty() ? 0 : deg.front(), pct(0.5), mean, pct(0.99), deg.empty() ? 0 : deg.back());
+  std::printf("origin       %.6f %.6f %.6f\n", g.origin[0], g.origin[1], g.origin[2]);
+  std::printf("memory       %.1f MiB (%.0f B/point)\n", g.memoryBytes() / 1048576.0,
+              cloud.empty() ? 0.0 : double(g.memoryBytes()) / double(cloud.size()));
+  std::printf("build time   %.3f s (%.0f points/s)\n", run.build_s,
+              run.build_s > 0 ? cloud.size() / run.build_s : 0.0);
+  std::printf("stages      ");
+  for (std::size_t k = 0; k < run.stages.size(); ++k) {
+    const auto end = k + 1 < run.stages.size() ? run.stages[k + 1].second : run.built;
+    std::printf("%s %s %.3f s", k ? "," : "", run.stages[k].first.c_str(),
+                std::chrono::duration<double>(end - run.stages[k].second).count());
+  }
+  std::printf("\n");
+  std::printf("saved        %s in %.3f s\n", o.output.c_str(), run.save_s);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  const int parsed = parseOptions(argc, argv, o);
+  if (parsed >= 0) return parsed;
   try {
     const auto t_load = Clock::now();
-    const auto cloud = loadCloud(input);
+    const auto cloud = loadCloud(o.input);
     const double load_s = since(t_load);
-    std::printf("input        %s\npoints       %zu (loaded in %.3f s)\n", input.c_str(), cloud.size(),
+    std::printf("input        %s\npoints       %zu (loaded in %.3f s)\n", o.input.c_str(), cloud.size(),
                 load_s);
-    // Progress on large inputs only: a line per stage and per 10%, on stderr so stdout stays parseable.
-    // Each stage's time runs from its first report to the next stage's (the last: to the end).
-    const bool print_progress = !quiet && cloud.size() >= 200000;
-    std::vector<std::pair<std::string, Clock::time_point>> stages;
-    options.progress = [&, last = std::string(), tenth = -1](const std::string& stage, double f) mutable {
-      if (stages.empty() || stages.back().first != stage) stages.emplace_back(stage, Clock::now());
-      const int t = static_cast<int>(f * 10);
-      if (print_progress && (stage != last || t != tenth)) {
-        std::fprintf(stderr, "  [%s] %3d%%\n", stage.c_str(), t * 10);
-        last = stage;
-        tenth = t;
-      }
-    };
-    const auto t_build = Clock::now();
-    const dw::DelaunayGraph g =
-        cloud.empty()
-            ? dw::buildDelaunayGraph(dw::PointView::fromFloat(nullptr, 0), options)
-            : dw::buildDelaunayGraph(
-                  dw::PointView::fromFloat(&cloud[0].x, cloud.size(), sizeof(pcl::PointXYZ)), options);
-    const auto t_built = Clock::now();  // the end of the last stage, and where saving starts
-    const double build_s = std::chrono::duration<double>(t_built - t_build).count();
-    dw::saveGraph(g, output);
-    const double save_s = since(t_built);
-
-    std::size_t skipped = 0;
-    for (dw::index_t v : g.input_to_vertex) skipped += v == dw::kInvalidIndex ? 1 : 0;
-    std::vector<std::size_t> deg(g.numVertices());
-    for (std::size_t v = 0; v < deg.size(); ++v) deg[v] = g.degree(static_cast<dw::index_t>(v));
-    std::sort(deg.begin(), deg.end());
-    auto pct = [&](double p) {
-      return deg.empty() ? 0 : deg[std::min(deg.size() - 1, std::size_t(p * deg.size()))];
-    };
-    const double mean = deg.empty() ? 0.0 : double(g.numDirectedEdges()) / double(deg.size());
-    std::printf("non-finite   %zu (skipped)\n", skipped);
-    std::printf("vertices     %zu (%zu duplicate points collapsed)\n", g.numVertices(),
-                cloud.size() - skipped - g.numVertices());
-    std::printf("dimension    %d\n", g.dimension);
-    std::printf("edges        %zu undirected (%zu directed records)\n", g.numDirectedEdges() / 2,
-                g.numDirectedEdges());
-    std::printf("degree       min %zu  median %zu  mean %.2f  p99 %zu  max %zu\n",
-                deg.empty() ? 0 : deg.front(), pct(0.5), mean, pct(0.99), deg.empty() ? 0 : deg.back());
-    std::printf("origin       %.6f %.6f %.6f\n", g.origin[0], g.origin[1], g.origin[2]);
-    std::printf("memory       %.1f MiB (%.0f B/point)\n", g.memoryBytes() / 1048576.0,
-                cloud.empty() ? 0.0 : double(g.memoryBytes()) / double(cloud.size()));
-    std::printf("build time   %.3f s (%.0f points/s)\n", build_s, build_s > 0 ? cloud.size() / build_s : 0.0);
-    std::printf("stages      ");
-    for (std::size_t k = 0; k < stages.size(); ++k) {
-      const auto end = k + 1 < stages.size() ? stages[k + 1].second : t_built;
-      std::printf("%s %s %.3f s", k ? "," : "", stages[k].first.c_str(),
-                  std::chrono::duration<double>(end - stages[k].second).count());
-    }
-    std::printf("\n");
-    std::printf("saved        %s in %.3f s\n", output.c_str(), save_s);
+    const BuildRun run = buildAndSave(cloud, o);
+    report(cloud, run, o);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dw_graph: error: %s\n", e.what());
     return 1;

@@ -151,6 +151,66 @@ void printMatrix(const Matrix4& m) {
     std::printf("  %12.8f %12.8f %12.8f %12.8f\n", m(r, 0), m(r, 1), m(r, 2), m(r, 3));
 }
 
+/// The walk's result and per-iteration statistics (queries, mean walk length, widened, NN time).
+void reportWalk(const WalkIcp& icp, const Report& w, const Options& o) {
+  std::uint64_t steps = 0, queries = 0, widened = 0;
+  for (const auto& s : icp.getIterationStatistics()) {
+    steps += s.walk_steps;
+    queries += s.queries;
+    widened += s.widened;
+  }
+  std::printf("\nDelaunay walk ICP (%s, %u thread%s)\n", dw::toString(o.strategy), o.threads,
+              o.threads == 1 ? "" : "s");
+  std::printf("transformation:\n");
+  printMatrix(w.transform);
+  std::printf("fitness %.9g  iterations %d  converged %s\n", w.fitness, w.iterations,
+              w.converged ? "yes" : "no");
+  std::printf("graph %s: %.3f s (%zu vertices, %zu directed edges)\n",
+              o.graph.empty() ? "build" : "load+check", w.index_s, icp.getTargetGraph()->numVertices(),
+              icp.getTargetGraph()->numDirectedEdges());
+  std::printf("per-iteration walk statistics:\n  iter  queries  mean-walks  widened   NN ms\n");
+  int it = 0;
+  for (const auto& s : icp.getIterationStatistics())
+    std::printf("  %4d  %7zu  %10.3f  %7zu  %6.2f\n", ++it, s.queries, s.meanWalkSteps(), s.widened,
+                1e3 * s.nn_seconds);
+  std::printf("mean walks/query %.3f over %llu queries (%llu widened)\n",
+              queries ? double(steps) / queries : 0.0, static_cast<unsigned long long>(queries),
+              static_cast<unsigned long long>(widened));
+}
+
+/// Without --compare: where align()'s time went.
+void reportTiming(const Report& w) {
+  std::printf("\ntiming (s): align %.4f = NN %.4f + transformation estimation %.4f + rest %.4f; graph %.4f\n",
+              w.align_s, w.nn_s, w.te_s, w.align_s - w.nn_s - w.te_s, w.index_s);
+}
+
+/// With --compare: the stock result, the difference of the transforms and the timing table.
+void reportComparison(const Report& w, const Report& k) {
+  std::printf("\nstock pcl::IterativeClosestPoint + pcl::search::KdTree\ntransformation:\n");
+  printMatrix(k.transform);
+  std::printf("fitness %.9g  iterations %d  converged %s\n", k.fitness, k.iterations,
+              k.converged ? "yes" : "no");
+  const float max_diff = (w.transform - k.transform).cwiseAbs().maxCoeff();
+  std::printf("\nmax |T_walk - T_stock| = %.3g, iterations %s\n", max_diff,
+              w.iterations == k.iterations ? "equal" : "DIFFER");
+  const double k_align_wo_index = k.align_s - 2 * k.index_s;  // both builds (see runStock)
+  std::printf("\n%-34s %12s %12s %8s\n", "seconds", "walk", "KdTree", "ratio");
+  auto row = [](const char* name, double a, double b) {
+    std::printf("%-34s %12.4f %12.4f %7.2fx\n", name, a, b, a > 0 ? b / a : 0.0);
+  };
+  const double k_nn_wo_index = k.nn_s - k.index_s;  // less the rebuild inside its first call
+  row("NN search (all iterations)", w.nn_s, k_nn_wo_index);
+  row("NN search per iteration", w.iterations ? w.nn_s / w.iterations : 0,
+      k.iterations ? k_nn_wo_index / k.iterations : 0);
+  row("transformation estimation", w.te_s, k.te_s);
+  row("rest of align()", w.align_s - w.nn_s - w.te_s, k.align_s - k.nn_s - k.te_s - k.index_s);
+  row("index build (graph / one k-d tree)", w.index_s, k.index_s);
+  row("align() (KdTree: incl. its build)", w.align_s, k.align_s);
+  row("align() excl. any index build", w.align_s, k_align_wo_index);
+  row("align() + index build", w.align_s + w.index_s, k.align_s);
+  row("getFitnessScore()", w.fitness_s, k.fitness_s);
+}
+
 void usage() {
   std::fprintf(stderr,
                "usage: dw_icp source target [--max-iterations N] [--max-distance D] [--epsilon E]\n"
@@ -159,11 +219,9 @@ void usage() {
                "              [--save-graph G] [--reciprocal] [--compare]\n");
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  Options o;
-  std::vector<std::string> files;
+/// The command line: options into `o`, the two file names into `files`. Returns -1 to go on, else the
+/// exit code (0 after --help, 2 on a usage error, reported here).
+int parseOptions(int argc, char** argv, Options& o, std::vector<std::string>& files) {
   try {
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
@@ -221,154 +279,138 @@ int main(int argc, char** argv) {
     usage();
     return 2;
   }
+  return -1;
+}
 
+/// --voxel: both clouds through one VoxelGrid leaf size.
+void voxelFilter(Cloud::Ptr& source, Cloud::Ptr& target, const Options& o) {
+  if (!o.graph.empty()) throw dw::Error("--voxel changes the target, so a saved --graph cannot match it");
+  for (Cloud::Ptr* c : {&source, &target}) {
+    Cloud::Ptr f(new Cloud);
+    pcl::VoxelGrid<P> vg;
+    vg.setInputCloud(*c);
+    vg.setLeafSize(o.voxel, o.voxel, o.voxel);
+    vg.filter(*f);
+    *c = f;
+  }
+}
+
+/// --rotate / --translate: the source moved by T * Rz * Ry * Rx (degrees).
+void moveSource(Cloud::Ptr& source, const Options& o) {
+  const double d = M_PI / 180.0;
+  const Eigen::Affine3f m = Eigen::Translation3f(o.translate[0], o.translate[1], o.translate[2]) *
+                            Eigen::AngleAxisf(float(o.rotate[2] * d), Eigen::Vector3f::UnitZ()) *
+                            Eigen::AngleAxisf(float(o.rotate[1] * d), Eigen::Vector3f::UnitY()) *
+                            Eigen::AngleAxisf(float(o.rotate[0] * d), Eigen::Vector3f::UnitX());
+  Cloud::Ptr moved(new Cloud);
+  pcl::transformPointCloud(*source, *moved, m);
+  source = moved;
+}
+
+/// Reads both clouds, applies --voxel and the source motion, and prints their sizes.
+void readInputs(const std::vector<std::string>& files, const Options& o, Cloud::Ptr& source,
+                Cloud::Ptr& target) {
+  source = loadCloud(files[0]);
+  target = loadCloud(files[1]);
+  if (o.voxel > 0.f) voxelFilter(source, target, o);
+  if (o.rotate[0] != 0 || o.rotate[1] != 0 || o.rotate[2] != 0 || o.translate[0] != 0 ||
+      o.translate[1] != 0 || o.translate[2] != 0)
+    moveSource(source, o);
+  if (source->empty() || target->empty()) throw dw::Error("source and target must not be empty");
+  std::printf("source %s: %zu points\ntarget %s: %zu points\n", files[0].c_str(), source->size(),
+              files[1].c_str(), target->size());
+}
+
+/// Registers with the Delaunay-walk ICP, timing the graph apart from align(), and prints its result
+/// and per-iteration walk statistics.
+Report runWalk(const Cloud::Ptr& source, const Cloud::Ptr& target, const Options& o) {
+  Report w;
+  WalkIcp icp;
+  configure(icp, o);
+  icp.setStartStrategy(o.strategy);
+  icp.setNumberOfThreads(o.threads);
+  auto te = std::make_shared<TimedEstimation>();
+  icp.setTransformationEstimation(te);
+  const auto t_index = Clock::now();
+  if (!o.graph.empty()) {
+    icp.getSearchMethodWalk()->loadGraph(o.graph);
+  }
+  // Built (or loaded and checked) here, outside align(), so that the two costs can be told apart;
+  // align() then finds the target unchanged and keeps the graph.
+  icp.getSearchMethodWalk()->setInputCloud(target);
+  w.index_s = since(t_index);
+  if (!o.save_graph.empty()) icp.getSearchMethodWalk()->saveGraph(o.save_graph);
+  icp.setInputSource(source);
+  icp.setInputTarget(target);
+  Cloud out;
+  const auto t_align = Clock::now();
+  icp.align(out);
+  w.align_s = since(t_align);
+  w.transform = icp.getFinalTransformation();
+  w.iterations = icp.nr_iterations_;
+  w.converged = icp.hasConverged();
+  const auto t_fit = Clock::now();
+  w.fitness = icp.getFitnessScore();
+  w.fitness_s = since(t_fit);
+  w.te_s = te->total();
+  for (const auto& s : icp.getIterationStatistics()) w.nn_s += s.nn_seconds;
+  reportWalk(icp, w, o);
+  return w;
+}
+
+/// Registers with stock PCL ICP and its KdTree, timing the correspondence search and one tree build.
+Report runStock(const Cloud::Ptr& source, const Cloud::Ptr& target, const Options& o) {
+  Report k;
+  StockIcp stock;
+  configure(stock, o);
+  auto te2 = std::make_shared<TimedEstimation>();
+  auto ce2 = std::make_shared<TimedStockEstimation>();
+  stock.setTransformationEstimation(te2);
+  stock.setCorrespondenceEstimation(ce2);
+  {
+    // What one FLANN build of the target costs, measured on its own. A stock align() pays it twice
+    // (PCL 1.13): Registration::initCompute builds the tree, then hands it to the correspondence
+    // estimation through setSearchMethodTarget, which marks it stale, so the estimation's first
+    // call builds it again (inside the timed NN search).
+    const auto t0 = Clock::now();
+    pcl::search::KdTree<P> probe;
+    probe.setInputCloud(target);
+    k.index_s = since(t0);
+  }
+  stock.setInputSource(source);
+  stock.setInputTarget(target);
+  Cloud out2;
+  const auto t_align2 = Clock::now();
+  stock.align(out2);
+  k.align_s = since(t_align2);
+  k.transform = stock.getFinalTransformation();
+  k.iterations = stock.nr_iterations_;
+  k.converged = stock.hasConverged();
+  const auto t_fit2 = Clock::now();
+  k.fitness = stock.getFitnessScore();
+  k.fitness_s = since(t_fit2);
+  k.nn_s = ce2->seconds;
+  k.te_s = te2->total();
+  return k;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  std::vector<std::string> files;
+  const int parsed = parseOptions(argc, argv, o, files);
+  if (parsed >= 0) return parsed;
   try {
-    Cloud::Ptr source = loadCloud(files[0]), target = loadCloud(files[1]);
-    if (o.voxel > 0.f) {
-      if (!o.graph.empty()) throw dw::Error("--voxel changes the target, so a saved --graph cannot match it");
-      for (Cloud::Ptr* c : {&source, &target}) {
-        Cloud::Ptr f(new Cloud);
-        pcl::VoxelGrid<P> vg;
-        vg.setInputCloud(*c);
-        vg.setLeafSize(o.voxel, o.voxel, o.voxel);
-        vg.filter(*f);
-        *c = f;
-      }
-    }
-    if (o.rotate[0] != 0 || o.rotate[1] != 0 || o.rotate[2] != 0 || o.translate[0] != 0 ||
-        o.translate[1] != 0 || o.translate[2] != 0) {
-      const double d = M_PI / 180.0;
-      const Eigen::Affine3f m = Eigen::Translation3f(o.translate[0], o.translate[1], o.translate[2]) *
-                                Eigen::AngleAxisf(float(o.rotate[2] * d), Eigen::Vector3f::UnitZ()) *
-                                Eigen::AngleAxisf(float(o.rotate[1] * d), Eigen::Vector3f::UnitY()) *
-                                Eigen::AngleAxisf(float(o.rotate[0] * d), Eigen::Vector3f::UnitX());
-      Cloud::Ptr moved(new Cloud);
-      pcl::transformPointCloud(*source, *moved, m);
-      source = moved;
-    }
-    if (source->empty() || target->empty()) throw dw::Error("source and target must not be empty");
-    std::printf("source %s: %zu points\ntarget %s: %zu points\n", files[0].c_str(), source->size(),
-                files[1].c_str(), target->size());
-
-    // --- the walk ---
-    Report w;
-    WalkIcp icp;
-    configure(icp, o);
-    icp.setStartStrategy(o.strategy);
-    icp.setNumberOfThreads(o.threads);
-    auto te = std::make_shared<TimedEstimation>();
-    icp.setTransformationEstimation(te);
-    const auto t_index = Clock::now();
-    if (!o.graph.empty()) {
-      icp.getSearchMethodWalk()->loadGraph(o.graph);
-    }
-    // Built (or loaded and checked) here, outside align(), so that the two costs can be told apart;
-    // align() then finds the target unchanged and keeps the graph.
-    icp.getSearchMethodWalk()->setInputCloud(target);
-    w.index_s = since(t_index);
-    if (!o.save_graph.empty()) icp.getSearchMethodWalk()->saveGraph(o.save_graph);
-    icp.setInputSource(source);
-    icp.setInputTarget(target);
-    Cloud out;
-    const auto t_align = Clock::now();
-    icp.align(out);
-    w.align_s = since(t_align);
-    w.transform = icp.getFinalTransformation();
-    w.iterations = icp.nr_iterations_;
-    w.converged = icp.hasConverged();
-    const auto t_fit = Clock::now();
-    w.fitness = icp.getFitnessScore();
-    w.fitness_s = since(t_fit);
-    w.te_s = te->total();
-    std::uint64_t steps = 0, queries = 0, widened = 0;
-    for (const auto& s : icp.getIterationStatistics()) {
-      w.nn_s += s.nn_seconds;
-      steps += s.walk_steps;
-      queries += s.queries;
-      widened += s.widened;
-    }
-
-    std::printf("\nDelaunay walk ICP (%s, %u thread%s)\n", dw::toString(o.strategy), o.threads,
-                o.threads == 1 ? "" : "s");
-    std::printf("transformation:\n");
-    printMatrix(w.transform);
-    std::printf("fitness %.9g  iterations %d  converged %s\n", w.fitness, w.iterations,
-                w.converged ? "yes" : "no");
-    std::printf("graph %s: %.3f s (%zu vertices, %zu directed edges)\n",
-                o.graph.empty() ? "build" : "load+check", w.index_s, icp.getTargetGraph()->numVertices(),
-                icp.getTargetGraph()->numDirectedEdges());
-    std::printf("per-iteration walk statistics:\n  iter  queries  mean-walks  widened   NN ms\n");
-    int it = 0;
-    for (const auto& s : icp.getIterationStatistics())
-      std::printf("  %4d  %7zu  %10.3f  %7zu  %6.2f\n", ++it, s.queries, s.meanWalkSteps(), s.widened,
-                  1e3 * s.nn_seconds);
-    std::printf("mean walks/query %.3f over %llu queries (%llu widened)\n",
-                queries ? double(steps) / queries : 0.0, static_cast<unsigned long long>(queries),
-                static_cast<unsigned long long>(widened));
-
+    Cloud::Ptr source, target;
+    readInputs(files, o, source, target);
+    const Report w = runWalk(source, target, o);
     if (!o.compare) {
-      std::printf(
-          "\ntiming (s): align %.4f = NN %.4f + transformation estimation %.4f + rest %.4f; graph %.4f\n",
-          w.align_s, w.nn_s, w.te_s, w.align_s - w.nn_s - w.te_s, w.index_s);
+      reportTiming(w);
       return 0;
     }
-
-    // --- stock PCL ICP with its KdTree ---
-    Report k;
-    StockIcp stock;
-    configure(stock, o);
-    auto te2 = std::make_shared<TimedEstimation>();
-    auto ce2 = std::make_shared<TimedStockEstimation>();
-    stock.setTransformationEstimation(te2);
-    stock.setCorrespondenceEstimation(ce2);
-    {
-      // What one FLANN build of the target costs, measured on its own. A stock align() pays it twice
-      // (PCL 1.13): Registration::initCompute builds the tree, then hands it to the correspondence
-      // estimation through setSearchMethodTarget, which marks it stale, so the estimation's first
-      // call builds it again (inside the timed NN search).
-      const auto t0 = Clock::now();
-      pcl::search::KdTree<P> probe;
-      probe.setInputCloud(target);
-      k.index_s = since(t0);
-    }
-    stock.setInputSource(source);
-    stock.setInputTarget(target);
-    Cloud out2;
-    const auto t_align2 = Clock::now();
-    stock.align(out2);
-    k.align_s = since(t_align2);
-    k.transform = stock.getFinalTransformation();
-    k.iterations = stock.nr_iterations_;
-    k.converged = stock.hasConverged();
-    const auto t_fit2 = Clock::now();
-    k.fitness = stock.getFitnessScore();
-    k.fitness_s = since(t_fit2);
-    k.nn_s = ce2->seconds;
-    k.te_s = te2->total();
-
-    std::printf("\nstock pcl::IterativeClosestPoint + pcl::search::KdTree\ntransformation:\n");
-    printMatrix(k.transform);
-    std::printf("fitness %.9g  iterations %d  converged %s\n", k.fitness, k.iterations,
-                k.converged ? "yes" : "no");
-    const float max_diff = (w.transform - k.transform).cwiseAbs().maxCoeff();
-    std::printf("\nmax |T_walk - T_stock| = %.3g, iterations %s\n", max_diff,
-                w.iterations == k.iterations ? "equal" : "DIFFER");
-    const double k_align_wo_index = k.align_s - 2 * k.index_s;  // both builds (above)
-    std::printf("\n%-34s %12s %12s %8s\n", "seconds", "walk", "KdTree", "ratio");
-    auto row = [](const char* name, double a, double b) {
-      std::printf("%-34s %12.4f %12.4f %7.2fx\n", name, a, b, a > 0 ? b / a : 0.0);
-    };
-    const double k_nn_wo_index = k.nn_s - k.index_s;  // less the rebuild inside its first call
-    row("NN search (all iterations)", w.nn_s, k_nn_wo_index);
-    row("NN search per iteration", w.iterations ? w.nn_s / w.iterations : 0,
-        k.iterations ? k_nn_wo_index / k.iterations : 0);
-    row("transformation estimation", w.te_s, k.te_s);
-    row("rest of align()", w.align_s - w.nn_s - w.te_s, k.align_s - k.nn_s - k.te_s - k.index_s);
-    row("index build (graph / one k-d tree)", w.index_s, k.index_s);
-    row("align() (KdTree: incl. its build)", w.align_s, k.align_s);
-    row("align() excl. any index build", w.align_s, k_align_wo_index);
-    row("align() + index build", w.align_s + w.index_s, k.align_s);
-    row("getFitnessScore()", w.fitness_s, k.fitness_s);
+    const Report k = runStock(source, target, o);
+    reportComparison(w, k);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dw_icp: error: %s\n", e.what());
     return 1;

@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
-#include "pcl_delaunay_walk/core/util/point_file.h"
 #include "pcl_delaunay_walk/core/search/walk.h"
+#include "pcl_delaunay_walk/core/util/point_file.h"
 #include "pcl_delaunay_walk/gpu/delaunay_walk.h"
 #include "pcl_delaunay_walk/gpu/iterative_closest_point.h"
 
@@ -25,9 +25,9 @@
 #include <nanoflann.hpp>
 #endif
 
-using pcl::gpu::checkCuda;
-using pcl::gpu::DelaunayWalk;
-using pcl::gpu::DeviceArray;
+using dw::gpu::checkCuda;
+using dw::gpu::DelaunayWalk;
+using dw::gpu::DeviceBuffer;
 using Clock = std::chrono::steady_clock;
 
 namespace {
@@ -118,11 +118,43 @@ using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<
                                                    CloudAdaptor, 3, std::uint32_t>;
 #endif
 
-void benchCloud(const std::string& name, const std::string& path, unsigned hw_threads) {
-  std::printf("\n## %s (%s)\n", name.c_str(), path.c_str());
-  const auto xyz = dw::readPointsXyz(path);
-  auto t0 = Clock::now();
-  const auto graph = dw::buildDelaunayGraph(dw::PointView::fromDouble(xyz.data(), xyz.size() / 3));
+/// One cloud's graph on the device with the ICP-like queries, their PNN hints and the brute-force
+/// truth every timed walk is checked against.
+struct WalkBench {
+  const dw::DelaunayGraph& graph;
+  DelaunayWalk& walk;
+  std::size_t n;
+  std::vector<float4> q;  ///< this iteration's queries (host copy)
+  DeviceBuffer<float4> dq;
+  DeviceBuffer<std::uint32_t> hints, verts, steps, truth_v;
+  DeviceBuffer<float> d2, truth_d2;
+  std::vector<float> truth;
+  double brute_force_us = 0;
+  int best_lanes = 8, best_layout = 0;
+
+  WalkBench(const dw::DelaunayGraph& g, DelaunayWalk& w)
+      : graph(g), walk(w), n(g.numVertices()), hints(n), verts(n), steps(n), truth_v(n), d2(n), truth_d2(n) {}
+
+  /// How many of d2's answers differ from the brute force (printed when any do).
+  std::size_t check(const char* what) {
+    std::vector<float> got;
+    d2.download(got);
+    std::size_t bad = 0;
+    for (std::size_t i = 0; i < n; ++i) bad += got[i] != truth[i];
+    if (bad) std::printf("!! %s: %zu of %zu answers differ from brute force\n", what, bad, n);
+    return bad;
+  }
+  double meanSteps() {
+    std::vector<std::uint32_t> s;
+    steps.download(s);
+    return std::accumulate(s.begin(), s.end(), 0.0) / double(n);
+  }
+};
+
+/// Reads the cloud, builds its graph on the host and prints its size and degrees.
+dw::DelaunayGraph buildGraph(const std::vector<double>& xyz) {
+  const auto t0 = Clock::now();
+  auto graph = dw::buildDelaunayGraph(dw::PointView::fromDouble(xyz.data(), xyz.size() / 3));
   const double build_s = std::chrono::duration<double>(Clock::now() - t0).count();
   std::size_t max_deg = 0;
   for (std::size_t v = 0; v < graph.numVertices(); ++v)
@@ -131,242 +163,270 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
       "points %zu, vertices %zu, directed edges %zu (mean degree %.1f, max %zu), graph build %.2f s (host)\n",
       xyz.size() / 3, graph.numVertices(), graph.numDirectedEdges(),
       double(graph.numDirectedEdges()) / double(graph.numVertices()), max_deg, build_s);
-  t0 = Clock::now();
-  DelaunayWalk walk(graph);
-  std::printf("upload + start grid: %.1f ms\n",
-              std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  return graph;
+}
 
-  // ICP-like queries in the graph's (Morton) order: the cloud moved a little (previous iteration),
-  // then moved a little less (this iteration); PNN hints are the previous iteration's answers.
-  const std::size_t n = graph.numVertices();
-  std::vector<float4> q_prev(n), q(n);
+/// ICP-like queries in the graph's (Morton) order: the cloud moved a little (previous iteration),
+/// then moved a little less (this iteration); PNN hints are the previous iteration's answers. Times
+/// the brute force that gives the truth.
+void prepareQueries(WalkBench& b) {
+  const std::size_t n = b.n;
+  std::vector<float4> q_prev(n);
+  b.q.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    q_prev[i] = moved(graph.points[i], 0.010f, 0.0010f);
-    q[i] = moved(graph.points[i], 0.008f, 0.0008f);
+    q_prev[i] = moved(b.graph.points[i], 0.010f, 0.0010f);
+    b.q[i] = moved(b.graph.points[i], 0.008f, 0.0008f);
   }
-  DeviceArray<float4> dq_prev, dq;
+  DeviceBuffer<float4> dq_prev;
   dq_prev.upload(q_prev);
-  dq.upload(q);
-  DeviceArray<std::uint32_t> hints(n), verts(n), steps(n), truth_v(n);
-  DeviceArray<float> d2(n), truth_d2(n);
-  walk.nearest(dq_prev.ptr(), n, nullptr, hints.ptr(), d2.ptr());
+  b.dq.upload(b.q);
+  b.walk.nearest(dq_prev.ptr(), n, nullptr, b.hints.ptr(), b.d2.ptr());
   const int bf_reps = n > 200000 ? 3 : 10;
-  const double bf =
-      timeGpu([&] { walk.bruteForceNearest(dq.ptr(), n, truth_v.ptr(), truth_d2.ptr()); }, bf_reps);
-  std::vector<float> truth;
-  truth_d2.download(truth);
+  b.brute_force_us =
+      timeGpu([&] { b.walk.bruteForceNearest(b.dq.ptr(), n, b.truth_v.ptr(), b.truth_d2.ptr()); }, bf_reps);
+  b.truth_d2.download(b.truth);
+}
 
-  auto check = [&](const char* what) {
-    std::vector<float> got;
-    d2.download(got);
-    std::size_t bad = 0;
-    for (std::size_t i = 0; i < n; ++i) bad += got[i] != truth[i];
-    if (bad) std::printf("!! %s: %zu of %zu answers differ from brute force\n", what, bad, n);
-    return bad;
-  };
-  auto meanSteps = [&] {
-    std::vector<std::uint32_t> s;
-    steps.download(s);
-    return std::accumulate(s.begin(), s.end(), 0.0) / double(n);
-  };
+// Layouts: 0 = neighbour indices (gather positions), 1 = inline neighbour positions.
+const char* const kLayoutName[2] = {"index", "inline positions"};
 
-  std::printf("| %-58s | %12s | note\n", "what (exact 1-NN unless said)", "median us");
-  std::printf("|%s|%s|-----\n", std::string(60, '-').c_str(), std::string(14, '-').c_str());
-  // Layouts: 0 = neighbour indices (gather positions), 1 = inline neighbour positions.
-  const char* layout_name[2] = {"index", "inline positions"};
+/// The PNN walk for every tile width and layout; leaves the walk at the fastest.
+void benchTileWidths(WalkBench& b) {
+  DelaunayWalk& walk = b.walk;
+  const std::size_t n = b.n;
   double best = 1e30;
-  int best_lanes = 8, best_layout = 0;
-  auto setLayout = [&](int layout) { walk.setInlineNeighbourPositions(layout == 1); };
   for (int layout : {0, 1}) {
-    setLayout(layout);
+    walk.setInlineNeighbourPositions(layout == 1);
     for (int lanes : {1, 2, 4, 8, 16, 32}) {
       if (layout == 1 && (lanes == 1 || lanes == 32)) continue;
       walk.setGroupSize(lanes);
-      const double t = timeGpu([&] { walk.nearest(dq.ptr(), n, hints.ptr(), verts.ptr(), d2.ptr()); });
-      walk.nearest(dq.ptr(), n, hints.ptr(), verts.ptr(), d2.ptr(), steps.ptr());
-      const std::size_t bad = check("PNN walk");
+      const double t =
+          timeGpu([&] { walk.nearest(b.dq.ptr(), n, b.hints.ptr(), b.verts.ptr(), b.d2.ptr()); });
+      walk.nearest(b.dq.ptr(), n, b.hints.ptr(), b.verts.ptr(), b.d2.ptr(), b.steps.ptr());
+      const std::size_t bad = b.check("PNN walk");
       char note[128];
-      std::snprintf(note, sizeof note, "mean steps %.2f, %s", meanSteps(),
+      std::snprintf(note, sizeof note, "mean steps %.2f, %s", b.meanSteps(),
                     bad ? "MISMATCH" : "== brute force");
       row(std::string("GPU walk, PNN hints, ") + std::to_string(lanes) + " lane(s)/query, " +
-              layout_name[layout],
+              kLayoutName[layout],
           t, note);
       if (t < best) {
         best = t;
-        best_lanes = lanes;
-        best_layout = layout;
+        b.best_lanes = lanes;
+        b.best_layout = layout;
       }
     }
   }
-  setLayout(best_layout);
-  std::printf("best: %d lanes, %s layout\n", best_lanes, layout_name[best_layout]);
-  walk.setGroupSize(best_lanes);
+  walk.setInlineNeighbourPositions(b.best_layout == 1);
+  std::printf("best: %d lanes, %s layout\n", b.best_lanes, kLayoutName[b.best_layout]);
+  walk.setGroupSize(b.best_lanes);
+}
+
+/// At the best tile width: the safe-ball test off, a user's defaults, the grid start, the perfect
+/// start, and the brute force beside them.
+void benchWalkVariants(WalkBench& b) {
+  DelaunayWalk& walk = b.walk;
+  const std::size_t n = b.n;
   {  // what the safe-ball test saves (same configuration, test off)
     walk.setSafeBallTest(false);
-    const double t = timeGpu([&] { walk.nearest(dq.ptr(), n, hints.ptr(), verts.ptr(), d2.ptr()); });
-    walk.nearest(dq.ptr(), n, hints.ptr(), verts.ptr(), d2.ptr(), steps.ptr());
+    const double t = timeGpu([&] { walk.nearest(b.dq.ptr(), n, b.hints.ptr(), b.verts.ptr(), b.d2.ptr()); });
+    walk.nearest(b.dq.ptr(), n, b.hints.ptr(), b.verts.ptr(), b.d2.ptr(), b.steps.ptr());
     char note[128];
-    std::snprintf(note, sizeof note, "mean steps %.2f, %s", meanSteps(),
-                  check("PNN walk, no safe ball") ? "MISMATCH" : "== brute force");
+    std::snprintf(note, sizeof note, "mean steps %.2f, %s", b.meanSteps(),
+                  b.check("PNN walk, no safe ball") ? "MISMATCH" : "== brute force");
     row("GPU walk, PNN hints, best, safe-ball test off", t, note);
     walk.setSafeBallTest(true);
   }
   {
-    DelaunayWalk fresh(graph);  // the defaults a user gets
-    const double t = timeGpu([&] { fresh.nearest(dq.ptr(), n, hints.ptr(), verts.ptr(), d2.ptr()); });
-    fresh.nearest(dq.ptr(), n, hints.ptr(), verts.ptr(), d2.ptr());
+    DelaunayWalk fresh(b.graph);  // the defaults a user gets
+    const double t = timeGpu([&] { fresh.nearest(b.dq.ptr(), n, b.hints.ptr(), b.verts.ptr(), b.d2.ptr()); });
+    fresh.nearest(b.dq.ptr(), n, b.hints.ptr(), b.verts.ptr(), b.d2.ptr());
     char note[128];
-    std::snprintf(note, sizeof note, "%s", check("default walk") ? "MISMATCH" : "== brute force");
+    std::snprintf(note, sizeof note, "%s", b.check("default walk") ? "MISMATCH" : "== brute force");
     row("GPU walk, PNN hints, DEFAULT settings (" + std::to_string(fresh.groupSize()) + " lanes, " +
             (fresh.inlineNeighbourPositions() ? "inline positions" : "index") + ")",
         t, note);
   }
   {
-    const double t = timeGpu([&] { walk.nearest(dq.ptr(), n, nullptr, verts.ptr(), d2.ptr()); });
-    walk.nearest(dq.ptr(), n, nullptr, verts.ptr(), d2.ptr(), steps.ptr());
+    const double t = timeGpu([&] { walk.nearest(b.dq.ptr(), n, nullptr, b.verts.ptr(), b.d2.ptr()); });
+    walk.nearest(b.dq.ptr(), n, nullptr, b.verts.ptr(), b.d2.ptr(), b.steps.ptr());
     char note[128];
-    std::snprintf(note, sizeof note, "mean steps %.2f, %s", meanSteps(),
-                  check("grid walk") ? "MISMATCH" : "== brute force");
-    row("GPU walk, grid start (first ICP round), " + std::to_string(best_lanes) + " lanes", t, note);
+    std::snprintf(note, sizeof note, "mean steps %.2f, %s", b.meanSteps(),
+                  b.check("grid walk") ? "MISMATCH" : "== brute force");
+    row("GPU walk, grid start (first ICP round), " + std::to_string(b.best_lanes) + " lanes", t, note);
   }
-  for (int lanes : {1, best_lanes}) {
+  for (int lanes : {1, b.best_lanes}) {
     walk.setGroupSize(lanes);
-    const double t = timeGpu([&] { walk.nearest(dq.ptr(), n, truth_v.ptr(), verts.ptr(), d2.ptr()); });
+    const double t =
+        timeGpu([&] { walk.nearest(b.dq.ptr(), n, b.truth_v.ptr(), b.verts.ptr(), b.d2.ptr()); });
     row("GPU walk, perfect start, " + std::to_string(lanes) + " lane(s)", t, "scan of one neighbourhood");
   }
-  walk.setGroupSize(best_lanes);
-  row("GPU brute force (own kernel)", bf, "reference");
-  {
-    DeviceArray<std::uint32_t> idx, cnt;
-    DeviceArray<float> dd;
-    for (unsigned k : {8u, 16u}) {
-      const double t = timeGpu([&] { walk.knn(dq, k, &hints, idx, dd, cnt); }, 10);
-      row("GPU kNN k=" + std::to_string(k) + ", PNN hints", t, "");
-    }
-    double spacing = 0.0;  // mean NN spacing estimate from the graph's edges
-    for (std::size_t v = 0; v < std::min<std::size_t>(n, 2000); ++v) {
-      float m = 1e30f;
-      for (auto e = graph.offsets[v]; e < graph.offsets[v + 1]; ++e) m = std::min(m, 2.f * graph.edges[e].m);
-      spacing += m;
-    }
-    spacing /= double(std::min<std::size_t>(n, 2000));
-    const float r = float(2.0 * spacing);
-    const double t = timeGpu([&] { walk.radius(dq, r, 32, &hints, idx, dd, cnt); }, 10);
-    std::vector<std::uint32_t> c;
-    cnt.download(c);
-    char note[96];
-    std::snprintf(note, sizeof note, "r = %.2g, mean found %.1f", r,
-                  std::accumulate(c.begin(), c.end(), 0.0) / double(n));
-    row("GPU radius, max_nn 32, PNN hints", t, note);
-  }
+  walk.setGroupSize(b.best_lanes);
+  row("GPU brute force (own kernel)", b.brute_force_us, "reference");
+}
 
-  // CPU: the core's walk from the same hints, and nanoflann, on 1 and all threads.
+/// kNN for two k and a bounded radius search at twice the mean NN spacing, from the PNN hints.
+void benchKnnAndRadius(WalkBench& b) {
+  DeviceBuffer<std::uint32_t> idx, cnt;
+  DeviceBuffer<float> dd;
+  for (unsigned k : {8u, 16u}) {
+    const double t = timeGpu([&] { b.walk.knn(b.dq, k, &b.hints, idx, dd, cnt); }, 10);
+    row("GPU kNN k=" + std::to_string(k) + ", PNN hints", t, "");
+  }
+  const dw::DelaunayGraph& graph = b.graph;
+  double spacing = 0.0;  // mean NN spacing estimate from the graph's edges
+  for (std::size_t v = 0; v < std::min<std::size_t>(b.n, 2000); ++v) {
+    float m = 1e30f;
+    for (auto e = graph.offsets[v]; e < graph.offsets[v + 1]; ++e) m = std::min(m, 2.f * graph.edges[e].m);
+    spacing += m;
+  }
+  spacing /= double(std::min<std::size_t>(b.n, 2000));
+  const float r = float(2.0 * spacing);
+  const double t = timeGpu([&] { b.walk.radius(b.dq, r, 32, &b.hints, idx, dd, cnt); }, 10);
+  std::vector<std::uint32_t> c;
+  cnt.download(c);
+  char note[96];
+  std::snprintf(note, sizeof note, "r = %.2g, mean found %.1f", r,
+                std::accumulate(c.begin(), c.end(), 0.0) / double(b.n));
+  row("GPU radius, max_nn 32, PNN hints", t, note);
+}
+
+/// The CPU peers: the core's walk from the same hints, and nanoflann, on 1 and all threads.
+void benchCpuPeers(WalkBench& b, unsigned hw_threads) {
+  const std::size_t n = b.n;
   std::vector<std::uint32_t> h;
-  hints.download(h);
+  b.hints.download(h);
   std::vector<dw::Vec3f> qc(n);
-  for (std::size_t i = 0; i < n; ++i) qc[i] = {q[i].x, q[i].y, q[i].z};
+  for (std::size_t i = 0; i < n; ++i) qc[i] = {b.q[i].x, b.q[i].y, b.q[i].z};
   std::vector<dw::index_t> out(n);
   for (unsigned th : {1u, hw_threads}) {
     const double t = timeHost(
         [&] {
-          parallelFor(n, th, [&](std::size_t b, std::size_t e) {
-            for (std::size_t i = b; i < e; ++i) out[i] = dw::walk(graph, qc[i], h[i]).vertex;
+          parallelFor(n, th, [&](std::size_t lo, std::size_t hi) {
+            for (std::size_t i = lo; i < hi; ++i) out[i] = dw::walk(b.graph, qc[i], h[i]).vertex;
           });
         },
         th == 1 ? 3 : 10);
     row("CPU walk (core), PNN hints, " + std::to_string(th) + " thread(s)", t, "");
   }
 #ifdef DW_HAVE_NANOFLANN
-  {
-    CloudAdaptor ad{&graph.points};
-    t0 = Clock::now();
-    KdTree tree(3, ad, nanoflann::KDTreeSingleIndexAdaptorParams(10));
-    std::printf("nanoflann build: %.1f ms\n",
-                std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-    for (unsigned th : {1u, hw_threads}) {
-      const double t = timeHost(
-          [&] {
-            parallelFor(n, th, [&](std::size_t b, std::size_t e) {
-              for (std::size_t i = b; i < e; ++i) {
-                std::uint32_t idx;
-                float dd;
-                tree.knnSearch(&qc[i].x, 1, &idx, &dd);
-                out[i] = idx;
-              }
-            });
-          },
-          th == 1 ? 3 : 10);
-      row("CPU nanoflann k-d tree, " + std::to_string(th) + " thread(s)", t, "");
-    }
+  CloudAdaptor ad{&b.graph.points};
+  const auto t0 = Clock::now();
+  KdTree tree(3, ad, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  std::printf("nanoflann build: %.1f ms\n",
+              std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  for (unsigned th : {1u, hw_threads}) {
+    const double t = timeHost(
+        [&] {
+          parallelFor(n, th, [&](std::size_t lo, std::size_t hi) {
+            for (std::size_t i = lo; i < hi; ++i) {
+              std::uint32_t idx;
+              float dd;
+              tree.knnSearch(&qc[i].x, 1, &idx, &dd);
+              out[i] = idx;
+            }
+          });
+        },
+        th == 1 ? 3 : 10);
+    row("CPU nanoflann k-d tree, " + std::to_string(th) + " thread(s)", t, "");
   }
 #else
   std::printf("(nanoflann not found: its rows are missing)\n");
 #endif
+}
 
-  // Whole GPU ICP: the cloud (input order, world frame) moved by a known motion, registered back.
-  {
-    pcl::gpu::IcpParameters p;
-    p.max_iterations = 30;
-    p.max_correspondence_distance = 0.01;
-    p.transformation_epsilon = 1e-10;
-    p.euclidean_fitness_epsilon = 1e-6;
-    auto target = std::make_shared<DelaunayWalk>(graph);
-    target->setGroupSize(best_lanes);  // the ICP walk uses the target's tile width and layout
-    target->setInlineNeighbourPositions(best_layout == 1);
-    pcl::gpu::IterativeClosestPoint icp(target);
-    icp.setParameters(p);
-    std::vector<double> src(xyz.size());
-    const double ang = 0.05, c = std::cos(ang), s = std::sin(ang);
-    for (std::size_t i = 0; i + 2 < xyz.size(); i += 3) {
-      src[i] = c * xyz[i] - s * xyz[i + 1] + 0.003;
-      src[i + 1] = s * xyz[i] + c * xyz[i + 1] - 0.002;
-      src[i + 2] = xyz[i + 2] + 0.001;
-    }
-    icp.setInputSource(dw::PointView::fromDouble(src.data(), src.size() / 3));
-    pcl::gpu::IcpResult res;
-    const double t = timeHost([&] { res = icp.align(); }, 20);
-    char note[160];
-    std::snprintf(note, sizeof note, "%d iterations (%s), %u correspondences, MSE %.2e, R00 %.6f",
-                  res.iterations, pcl::gpu::toString(res.state), res.correspondences, res.mse,
-                  res.transformation[0]);
-    row("GPU ICP align(), end to end (graph on device)", t, note);
-    {  // per-iteration cost: exactly 30 iterations (no criterion can fire before max_iterations)
-      pcl::gpu::IcpParameters fixed = p;
-      fixed.transformation_epsilon = -1.0;
-      fixed.euclidean_fitness_epsilon = -1.0;
-      fixed.mse_threshold_absolute = -1.0;
-      icp.setParameters(fixed);
-      pcl::gpu::IcpResult r30;
-      const double t30 = timeHost([&] { r30 = icp.align(); }, 10);
-      char n30[96];
-      std::snprintf(n30, sizeof n30, "%d iterations: %.1f us per iteration", r30.iterations,
-                    t30 / r30.iterations);
-      row("GPU ICP align(), exactly 30 iterations", t30, n30);
-      icp.setParameters(p);
-    }
-    // Batched: 8 sources (the same cloud under 8 shifts) in one call, against 8 single calls.
-    const int kBatch = 8;
-    std::vector<std::vector<double>> srcs(kBatch, src);
-    for (int b = 0; b < kBatch; ++b)
-      for (std::size_t i = 0; i + 2 < xyz.size(); i += 3) srcs[b][i] += 0.0005 * b;
-    pcl::gpu::IterativeClosestPoint batch(target);
-    batch.setParameters(p);
-    std::vector<std::unique_ptr<pcl::gpu::IterativeClosestPoint>> singles;
-    for (auto& sb : srcs) {
-      batch.addSource(dw::PointView::fromDouble(sb.data(), sb.size() / 3));
-      singles.push_back(std::make_unique<pcl::gpu::IterativeClosestPoint>(target));
-      singles.back()->setParameters(p);
-      singles.back()->setInputSource(dw::PointView::fromDouble(sb.data(), sb.size() / 3));
-    }
-    const double tb = timeHost([&] { batch.alignAll(); }, 10);
-    const double ts = timeHost(
-        [&] {
-          for (auto& one : singles) one->align();
-        },
-        10);
-    row("GPU ICP alignAll(), 8 sources in one call", tb, "");
-    row("GPU ICP align() x 8, one after another", ts, "sources already on the device");
+/// GPU ICP align() to convergence, then with no criterion able to fire before max_iterations (the
+/// per-iteration cost).
+void benchIcpSingle(dw::gpu::IterativeClosestPoint& icp, const dw::gpu::IcpParameters& p) {
+  dw::gpu::IcpResult res;
+  const double t = timeHost([&] { res = icp.align(); }, 20);
+  char note[160];
+  std::snprintf(note, sizeof note, "%d iterations (%s), %u correspondences, MSE %.2e, R00 %.6f",
+                res.iterations, dw::gpu::toString(res.state), res.correspondences, res.mse,
+                res.transformation[0]);
+  row("GPU ICP align(), end to end (graph on device)", t, note);
+  dw::gpu::IcpParameters fixed = p;
+  fixed.transformation_epsilon = -1.0;
+  fixed.euclidean_fitness_epsilon = -1.0;
+  fixed.mse_threshold_absolute = -1.0;
+  icp.setParameters(fixed);
+  dw::gpu::IcpResult r30;
+  const double t30 = timeHost([&] { r30 = icp.align(); }, 10);
+  char n30[96];
+  std::snprintf(n30, sizeof n30, "%d iterations: %.1f us per iteration", r30.iterations,
+                t30 / r30.iterations);
+  row("GPU ICP align(), exactly 30 iterations", t30, n30);
+  icp.setParameters(p);
+}
+
+/// Batched: 8 sources (the same cloud under 8 shifts) in one alignAll(), against 8 single calls.
+void benchIcpBatch(const DelaunayWalk::ConstPtr& target, const std::vector<double>& src,
+                   const dw::gpu::IcpParameters& p) {
+  const int kBatch = 8;
+  std::vector<std::vector<double>> srcs(kBatch, src);
+  for (int b = 0; b < kBatch; ++b)
+    for (std::size_t i = 0; i + 2 < src.size(); i += 3) srcs[b][i] += 0.0005 * b;
+  dw::gpu::IterativeClosestPoint batch(target);
+  batch.setParameters(p);
+  std::vector<std::unique_ptr<dw::gpu::IterativeClosestPoint>> singles;
+  for (auto& sb : srcs) {
+    batch.addSource(dw::PointView::fromDouble(sb.data(), sb.size() / 3));
+    singles.push_back(std::make_unique<dw::gpu::IterativeClosestPoint>(target));
+    singles.back()->setParameters(p);
+    singles.back()->setInputSource(dw::PointView::fromDouble(sb.data(), sb.size() / 3));
   }
+  const double tb = timeHost([&] { batch.alignAll(); }, 10);
+  const double ts = timeHost(
+      [&] {
+        for (auto& one : singles) one->align();
+      },
+      10);
+  row("GPU ICP alignAll(), 8 sources in one call", tb, "");
+  row("GPU ICP align() x 8, one after another", ts, "sources already on the device");
+}
+
+/// Whole GPU ICP: the cloud (input order, world frame) moved by a known motion, registered back,
+/// with the walk at the best tile width and layout.
+void benchIcp(const WalkBench& b, const std::vector<double>& xyz) {
+  dw::gpu::IcpParameters p;
+  p.max_iterations = 30;
+  p.max_correspondence_distance = 0.01;
+  p.transformation_epsilon = 1e-10;
+  p.euclidean_fitness_epsilon = 1e-6;
+  auto target = std::make_shared<DelaunayWalk>(b.graph);
+  target->setGroupSize(b.best_lanes);  // the ICP walk uses the target's tile width and layout
+  target->setInlineNeighbourPositions(b.best_layout == 1);
+  dw::gpu::IterativeClosestPoint icp(target);
+  icp.setParameters(p);
+  std::vector<double> src(xyz.size());
+  const double ang = 0.05, c = std::cos(ang), s = std::sin(ang);
+  for (std::size_t i = 0; i + 2 < xyz.size(); i += 3) {
+    src[i] = c * xyz[i] - s * xyz[i + 1] + 0.003;
+    src[i + 1] = s * xyz[i] + c * xyz[i + 1] - 0.002;
+    src[i + 2] = xyz[i + 2] + 0.001;
+  }
+  icp.setInputSource(dw::PointView::fromDouble(src.data(), src.size() / 3));
+  benchIcpSingle(icp, p);
+  benchIcpBatch(target, src, p);
+}
+
+void benchCloud(const std::string& name, const std::string& path, unsigned hw_threads) {
+  std::printf("\n## %s (%s)\n", name.c_str(), path.c_str());
+  const auto xyz = dw::readPointsXyz(path);
+  const dw::DelaunayGraph graph = buildGraph(xyz);
+  const auto t0 = Clock::now();
+  DelaunayWalk walk(graph);
+  std::printf("upload + start grid: %.1f ms\n",
+              std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  WalkBench b(graph, walk);
+  prepareQueries(b);
+  std::printf("| %-58s | %12s | note\n", "what (exact 1-NN unless said)", "median us");
+  std::printf("|%s|%s|-----\n", std::string(60, '-').c_str(), std::string(14, '-').c_str());
+  benchTileWidths(b);
+  benchWalkVariants(b);
+  benchKnnAndRadius(b);
+  benchCpuPeers(b, hw_threads);
+  benchIcp(b, xyz);
 }
 
 }  // namespace
@@ -374,7 +434,7 @@ void benchCloud(const std::string& name, const std::string& path, unsigned hw_th
 int main(int argc, char** argv) {
   const std::string dir = argc > 1 ? argv[1] : "../shared/data/models";
   if (argc > 2) g_reps = std::max(3, std::atoi(argv[2]));
-  if (pcl::gpu::cudaDeviceCount() == 0) {
+  if (dw::gpu::cudaDeviceCount() == 0) {
     std::printf("no CUDA device: nothing to measure\n");
     return 0;
   }

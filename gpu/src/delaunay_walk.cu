@@ -1,4 +1,4 @@
-// pcl::gpu::DelaunayWalk: graph upload, start grid, batch NN / kNN / radius and the brute-force reference.
+// dw::gpu::DelaunayWalk: graph upload, start grid, batch NN / kNN / radius and the brute-force reference.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -7,7 +7,7 @@
 #include "pcl_delaunay_walk/gpu/delaunay_walk.h"
 #include "walk_device.cuh"
 
-namespace pcl {
+namespace dw {
 namespace gpu {
 namespace {
 
@@ -101,7 +101,7 @@ __global__ void __launch_bounds__(kBlock)
   }
 }
 
-/// Exact kNN / bounded radius by best-first expansion from the NN (DESIGN.md §3), one thread per query.
+/// Exact kNN / bounded radius by best-first expansion from the NN (docs/architecture.md, "Why the searches are exact"), one thread per query.
 /// State is bounded without a visited set: F (expanded vertices) and C (candidates, sorted descending
 /// so the nearest pops from the back) each hold at most CAP vertices. A candidate is dropped only when
 /// at least k inputs are already known to be nearer, so it can never be one of the k; one dropped and
@@ -218,19 +218,19 @@ void launchNearest(const DeviceGraphView& g, const float4* q, std::size_t n, con
 void DelaunayWalk::setGraph(const dw::DelaunayGraph& graph, double cells_per_vertex) {
   const std::size_t nv = graph.numVertices();
   if (nv >= kInvalid || graph.numDirectedEdges() >= kInvalid || graph.numInputPoints() >= kInvalid)
-    throw dw::Error("pcl::gpu::DelaunayWalk: graph too large for 32-bit device indices");
+    throw dw::Error("dw::gpu::DelaunayWalk: graph too large for 32-bit device indices");
   if (graph.offsets.size() != nv + 1 || graph.originals_offsets.size() != nv + 1 ||
       (nv && graph.offsets.back() != graph.edges.size()))
     throw dw::Error(
-        "pcl::gpu::DelaunayWalk: graph CSR arrays are inconsistent (call DelaunayGraph::validate)");
+        "dw::gpu::DelaunayWalk: graph CSR arrays are inconsistent (call DelaunayGraph::validate)");
   if (!(cells_per_vertex > 0.0) || !std::isfinite(cells_per_vertex))
-    throw dw::Error("pcl::gpu::DelaunayWalk: cells_per_vertex must be positive and finite");
+    throw dw::Error("dw::gpu::DelaunayWalk: cells_per_vertex must be positive and finite");
 
   std::vector<std::uint32_t> nbr(graph.edges.size());
   for (std::size_t e = 0; e < nbr.size(); ++e) {
     nbr[e] = graph.edges[e].j;
     if (nbr[e] >= nv)
-      throw dw::Error("pcl::gpu::DelaunayWalk: edge " + std::to_string(e) + " points past the vertices");
+      throw dw::Error("dw::gpu::DelaunayWalk: edge " + std::to_string(e) + " points past the vertices");
   }
   // w = the safe-ball radius^2 of the walk (walk_device.cuh): a quarter of the squared distance to the
   // nearest neighbour, from the float vertices in double (not from the edge records' rounded m), shrunk
@@ -260,7 +260,7 @@ void DelaunayWalk::setGraph(const dw::DelaunayGraph& graph, double cells_per_ver
   for (std::size_t v = 0; v < nv; ++v) {
     if (graph.originals_offsets[v] >= graph.originals_offsets[v + 1] ||
         graph.originals_offsets[v + 1] > graph.originals.size())
-      throw dw::Error("pcl::gpu::DelaunayWalk: vertex " + std::to_string(v) + " has no original input index");
+      throw dw::Error("dw::gpu::DelaunayWalk: vertex " + std::to_string(v) + " has no original input index");
     vertex_to_input_[v] = graph.representative(dw::index_t(v));
   }
 
@@ -333,7 +333,7 @@ void DelaunayWalk::buildStartGrid(const dw::DelaunayGraph& graph, double cells_p
   constexpr int kRatio = 4;
   int cd[3];
   for (int a = 0; a < 3; ++a) cd[a] = (dims[a] + kRatio - 1) / kRatio;
-  DeviceArray<std::uint32_t> coarse(std::size_t(cd[0]) * cd[1] * cd[2]);
+  DeviceBuffer<std::uint32_t> coarse(std::size_t(cd[0]) * cd[1] * cd[2]);
   DeviceGraphView g = view_;  // grid_seeds stays null: seed walks start where told
   gridSeedKernel<<<blocksFor(coarse.size()), kBlock>>>(g, cd[0], cd[1], cd[2], lo[0], lo[1], lo[2],
                                                        h[0] * kRatio, h[1] * kRatio, h[2] * kRatio, nullptr,
@@ -398,7 +398,7 @@ void DelaunayWalk::setGroupSize(int lanes) {
   auto_group_size_ = lanes == 0;
   if (lanes == 0) lanes = defaultGroupSize(view_.num_vertices);
   if (lanes != 1 && lanes != 2 && lanes != 4 && lanes != 8 && lanes != 16 && lanes != 32)
-    throw dw::Error("pcl::gpu::DelaunayWalk::setGroupSize: lanes must be 0, 1, 2, 4, 8, 16 or 32, got " +
+    throw dw::Error("dw::gpu::DelaunayWalk::setGroupSize: lanes must be 0, 1, 2, 4, 8, 16 or 32, got " +
                     std::to_string(lanes));
   group_size_ = lanes;
 }
@@ -407,9 +407,9 @@ void DelaunayWalk::nearest(const float4* q, std::size_t n, const std::uint32_t* 
                            std::uint32_t* vertices, float* dist2, std::uint32_t* steps,
                            cudaStream_t stream) const {
   if (n == 0) return;
-  if (n >= kInvalid) throw dw::Error("pcl::gpu::DelaunayWalk::nearest: too many queries for one batch");
+  if (n >= kInvalid) throw dw::Error("dw::gpu::DelaunayWalk::nearest: too many queries for one batch");
   if (!q || !vertices || !dist2)
-    throw dw::Error("pcl::gpu::DelaunayWalk::nearest: null query or output pointer");
+    throw dw::Error("dw::gpu::DelaunayWalk::nearest: null query or output pointer");
   switch (group_size_) {
     case 1: launchNearest<1>(view_, q, n, hints, vertices, dist2, steps, stream); break;
     case 2: launchNearest<2>(view_, q, n, hints, vertices, dist2, steps, stream); break;
@@ -421,12 +421,12 @@ void DelaunayWalk::nearest(const float4* q, std::size_t n, const std::uint32_t* 
   checkLaunch("DelaunayWalk::nearest");
 }
 
-void DelaunayWalk::nearest(const DeviceArray<float4>& queries, const DeviceArray<std::uint32_t>* hints,
-                           DeviceArray<std::uint32_t>& vertices, DeviceArray<float>& dist2,
-                           DeviceArray<std::uint32_t>* steps, cudaStream_t stream) const {
+void DelaunayWalk::nearest(const DeviceBuffer<float4>& queries, const DeviceBuffer<std::uint32_t>* hints,
+                           DeviceBuffer<std::uint32_t>& vertices, DeviceBuffer<float>& dist2,
+                           DeviceBuffer<std::uint32_t>* steps, cudaStream_t stream) const {
   const std::size_t n = queries.size();
   if (hints && hints->size() != n)
-    throw dw::Error("pcl::gpu::DelaunayWalk::nearest: hints must have one entry per query");
+    throw dw::Error("dw::gpu::DelaunayWalk::nearest: hints must have one entry per query");
   vertices.create(n);
   dist2.create(n);
   if (steps) steps->create(n);
@@ -434,15 +434,15 @@ void DelaunayWalk::nearest(const DeviceArray<float4>& queries, const DeviceArray
           steps ? steps->ptr() : nullptr, stream);
 }
 
-void DelaunayWalk::expand(const DeviceArray<float4>& queries, unsigned k, double radius2,
-                          const DeviceArray<std::uint32_t>* hints, DeviceArray<std::uint32_t>& indices,
-                          DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts,
+void DelaunayWalk::expand(const DeviceBuffer<float4>& queries, unsigned k, double radius2,
+                          const DeviceBuffer<std::uint32_t>* hints, DeviceBuffer<std::uint32_t>& indices,
+                          DeviceBuffer<float>& dist2, DeviceBuffer<std::uint32_t>& counts,
                           cudaStream_t stream) const {
   const std::size_t n = queries.size();
   if (hints && hints->size() != n)
-    throw dw::Error("pcl::gpu::DelaunayWalk: hints must have one entry per query");
+    throw dw::Error("dw::gpu::DelaunayWalk: hints must have one entry per query");
   if (n >= kInvalid / std::max(1u, k))
-    throw dw::Error("pcl::gpu::DelaunayWalk: too many queries for one batch");
+    throw dw::Error("dw::gpu::DelaunayWalk: too many queries for one batch");
   indices.create(n * k);
   dist2.create(n * k);
   counts.create(n);
@@ -465,24 +465,24 @@ void DelaunayWalk::expand(const DeviceArray<float4>& queries, unsigned k, double
   checkLaunch("DelaunayWalk: kNN/radius expansion");
 }
 
-void DelaunayWalk::knn(const DeviceArray<float4>& queries, unsigned k,
-                       const DeviceArray<std::uint32_t>* hints, DeviceArray<std::uint32_t>& indices,
-                       DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts,
+void DelaunayWalk::knn(const DeviceBuffer<float4>& queries, unsigned k,
+                       const DeviceBuffer<std::uint32_t>* hints, DeviceBuffer<std::uint32_t>& indices,
+                       DeviceBuffer<float>& dist2, DeviceBuffer<std::uint32_t>& counts,
                        cudaStream_t stream) const {
   if (k == 0 || k > kMaxK)
-    throw dw::Error("pcl::gpu::DelaunayWalk::knn: k must be in 1.." + std::to_string(kMaxK) + ", got " +
+    throw dw::Error("dw::gpu::DelaunayWalk::knn: k must be in 1.." + std::to_string(kMaxK) + ", got " +
                     std::to_string(k));
   expand(queries, k, INFINITY, hints, indices, dist2, counts, stream);
 }
 
-void DelaunayWalk::radius(const DeviceArray<float4>& queries, float radius, unsigned max_nn,
-                          const DeviceArray<std::uint32_t>* hints, DeviceArray<std::uint32_t>& indices,
-                          DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts,
+void DelaunayWalk::radius(const DeviceBuffer<float4>& queries, float radius, unsigned max_nn,
+                          const DeviceBuffer<std::uint32_t>* hints, DeviceBuffer<std::uint32_t>& indices,
+                          DeviceBuffer<float>& dist2, DeviceBuffer<std::uint32_t>& counts,
                           cudaStream_t stream) const {
   if (!(radius >= 0.f) || !std::isfinite(radius))
-    throw dw::Error("pcl::gpu::DelaunayWalk::radius: radius must be finite and >= 0");
+    throw dw::Error("dw::gpu::DelaunayWalk::radius: radius must be finite and >= 0");
   if (max_nn == 0 || max_nn > kMaxK)
-    throw dw::Error("pcl::gpu::DelaunayWalk::radius: max_nn must be in 1.." + std::to_string(kMaxK) +
+    throw dw::Error("dw::gpu::DelaunayWalk::radius: max_nn must be in 1.." + std::to_string(kMaxK) +
                     ", got " + std::to_string(max_nn));
   expand(queries, max_nn, double(radius) * double(radius), hints, indices, dist2, counts, stream);
 }
@@ -491,7 +491,7 @@ void DelaunayWalk::bruteForceNearest(const float4* queries, std::size_t n, std::
                                      float* dist2, cudaStream_t stream) const {
   if (n == 0) return;
   if (n >= kInvalid)
-    throw dw::Error("pcl::gpu::DelaunayWalk::bruteForceNearest: too many queries for one batch");
+    throw dw::Error("dw::gpu::DelaunayWalk::bruteForceNearest: too many queries for one batch");
   bruteForceKernel<<<blocksFor(n), kBlock, 0, stream>>>(view_.points, view_.num_vertices, queries,
                                                         std::uint32_t(n), vertices, dist2);
   checkLaunch("DelaunayWalk::bruteForceNearest");
@@ -504,4 +504,4 @@ void DelaunayWalk::verticesToInputs(std::uint32_t* vertices, std::size_t n, cuda
 }
 
 }  // namespace gpu
-}  // namespace pcl
+}  // namespace dw

@@ -1,4 +1,4 @@
-// pcl::gpu::IterativeClosestPoint: the device-resident ICP loop (see the header for the design).
+// dw::gpu::IterativeClosestPoint: the device-resident ICP loop (see the header for the design).
 #include <algorithm>
 #include <cstring>
 #include <numeric>
@@ -9,7 +9,7 @@
 #include "pcl_delaunay_walk/gpu/rigid_transform.h"
 #include "walk_device.cuh"
 
-namespace pcl {
+namespace dw {
 namespace gpu {
 namespace {
 
@@ -142,8 +142,7 @@ __device__ void solveStep(SourceState& st, const double* acc, const SolveParams&
 /// source's current estimate and walked to its exact nearest target vertex from the previous answer
 /// (PNN). The same lean kernel shape as DelaunayWalk::nearest (G lanes per query, ~32 registers), so
 /// as many walks are in flight as there: the reduction lives in the next kernel, because fused here it
-/// raised the registers and cut the walks in flight ~3x (measured 75 us per iteration instead of ~25
-/// on the 100k dragon, docs/gpu.md).
+/// raised the registers and cut the walks in flight ~3x, an iteration about 3x slower (docs/gpu.md).
 constexpr int kWalkBlock = 128;  // as DelaunayWalk::nearest: 44 registers fit 11 such blocks per SM
 
 template <int G>
@@ -280,6 +279,20 @@ void launchCorrespond(const DeviceGraphView& g, const float4* pts, const std::ui
                                                          max_dist2, hints, corr_d2);
 }
 
+/// The walk kernel for the target's group size (the lanes are a template parameter of the kernel).
+void launchCorrespondFor(int group_size, const DeviceGraphView& g, const float4* pts,
+                         const std::uint32_t* point_source, std::size_t n, const SourceState* states,
+                         double max_dist2, std::uint32_t* hints, float* corr_d2, cudaStream_t stream) {
+  switch (group_size) {
+    case 1: launchCorrespond<1>(g, pts, point_source, n, states, max_dist2, hints, corr_d2, stream); break;
+    case 2: launchCorrespond<2>(g, pts, point_source, n, states, max_dist2, hints, corr_d2, stream); break;
+    case 8: launchCorrespond<8>(g, pts, point_source, n, states, max_dist2, hints, corr_d2, stream); break;
+    case 16: launchCorrespond<16>(g, pts, point_source, n, states, max_dist2, hints, corr_d2, stream); break;
+    case 32: launchCorrespond<32>(g, pts, point_source, n, states, max_dist2, hints, corr_d2, stream); break;
+    default: launchCorrespond<4>(g, pts, point_source, n, states, max_dist2, hints, corr_d2, stream); break;
+  }
+}
+
 /// The step of every source still running, one thread each. Kept out of the walk kernel: the 4x4
 /// Jacobi in double needs ~100 registers, which fused into the walk cut its occupancy to one block per
 /// multiprocessor and made an iteration 3-5x slower (measured, docs/gpu.md).
@@ -316,8 +329,71 @@ const char* toString(ConvergenceState s) {
   return "unknown";
 }
 
+namespace {
+
+/// A source's state before its first iteration: the guess in the device frame, where points are
+/// stored relative to the source centroid c and the target relative to its origin o.
+SourceState initialState(const Matrix4d& g, const double c[3], const std::array<double, 3>& o) {
+  for (double x : g)
+    if (!std::isfinite(x)) throw dw::Error("dw::gpu::IterativeClosestPoint: non-finite initial guess");
+  SourceState st;
+  std::memset(&st, 0, sizeof st);
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) st.r[3 * a + b] = g[4 * a + b];
+    // target_local = G_R (p + c) + G_t - o
+    st.t[a] = g[4 * a] * c[0] + g[4 * a + 1] * c[1] + g[4 * a + 2] * c[2] + g[4 * a + 3] - o[a];
+    st.c[a] = c[a];
+  }
+  for (int k = 0; k < 9; ++k) st.rf[k] = float(st.r[k]);
+  for (int a = 0; a < 3; ++a) st.rf[9 + a] = float(st.t[a]);
+  st.prev_mse = std::numeric_limits<double>::max();
+  st.state = int(ConvergenceState::NotConverged);
+  return st;
+}
+
+/// PCL's settings as the solve kernel reads them (thresholds resolved, the target origin for the
+/// world-frame criteria).
+SolveParams solveParams(const IcpParameters& p, const std::array<double, 3>& o) {
+  SolveParams prm{};
+  prm.max_dist2 = p.max_correspondence_distance * p.max_correspondence_distance;
+  prm.rotation_threshold = p.transformation_rotation_epsilon > 0 ? p.transformation_rotation_epsilon
+                                                                 : 1.0 - p.transformation_epsilon;
+  prm.translation_threshold = p.transformation_epsilon;
+  prm.relative_mse = p.euclidean_fitness_epsilon;
+  prm.absolute_mse = p.mse_threshold_absolute;
+  for (int a = 0; a < 3; ++a) prm.origin[a] = o[a];
+  prm.max_iterations = p.max_iterations;
+  prm.max_similar = p.max_iterations_similar_transforms;
+  prm.failure_after_max = p.failure_after_max_iterations ? 1 : 0;
+  prm.float_criteria = p.float_transform_criteria ? 1 : 0;
+  prm.min_correspondences = p.min_number_correspondences;
+  return prm;
+}
+
+/// A source's final state as PCL reports it: the world-frame transform, iterations, state, MSE.
+IcpResult resultOf(const SourceState& st, const std::array<double, 3>& o) {
+  IcpResult r;
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) r.transformation[4 * a + b] = st.r[3 * a + b];
+    // world: target_w = r (p_w - c) + t + o
+    r.transformation[4 * a + 3] =
+        st.t[a] + o[a] - (st.r[3 * a] * st.c[0] + st.r[3 * a + 1] * st.c[1] + st.r[3 * a + 2] * st.c[2]);
+  }
+  r.transformation[12] = r.transformation[13] = r.transformation[14] = 0.0;
+  r.transformation[15] = 1.0;
+  r.iterations = st.iterations;
+  r.state = static_cast<ConvergenceState>(st.state);
+  r.converged = r.state != ConvergenceState::NotConverged && r.state != ConvergenceState::NoCorrespondences &&
+                r.state != ConvergenceState::FailureAfterMaxIterations;
+  r.mse = st.mse;
+  r.correspondences = st.count;
+  return r;
+}
+
+}  // namespace
+
 IterativeClosestPoint::IterativeClosestPoint(DelaunayWalk::ConstPtr target) : target_(std::move(target)) {
-  if (!target_) throw dw::Error("pcl::gpu::IterativeClosestPoint: null target");
+  if (!target_) throw dw::Error("dw::gpu::IterativeClosestPoint: null target");
   checkCuda(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
   for (auto& e : events_) checkCuda(cudaEventCreateWithFlags(&e, cudaEventDisableTiming), "cudaEventCreate");
   void* p = nullptr;
@@ -339,10 +415,10 @@ IterativeClosestPoint::~IterativeClosestPoint() {
 
 void IterativeClosestPoint::setParameters(const IcpParameters& p) {
   if (!(p.max_correspondence_distance >= 0.0))
-    throw dw::Error("pcl::gpu::IterativeClosestPoint: max_correspondence_distance must be >= 0");
+    throw dw::Error("dw::gpu::IterativeClosestPoint: max_correspondence_distance must be >= 0");
   if (std::isnan(p.transformation_epsilon) || std::isnan(p.transformation_rotation_epsilon) ||
       std::isnan(p.euclidean_fitness_epsilon) || std::isnan(p.mse_threshold_absolute))
-    throw dw::Error("pcl::gpu::IterativeClosestPoint: NaN threshold");
+    throw dw::Error("dw::gpu::IterativeClosestPoint: NaN threshold");
   params_ = p;
 }
 
@@ -365,7 +441,7 @@ std::size_t IterativeClosestPoint::addSource(const dw::PointView& source) {
     if (std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])) pts.push_back(p);
   }
   if (host_points_.size() + pts.size() >= kInvalid)
-    throw dw::Error("pcl::gpu::IterativeClosestPoint: sources too large for 32-bit device indices");
+    throw dw::Error("dw::gpu::IterativeClosestPoint: sources too large for 32-bit device indices");
   HostSource hs;
   hs.begin = host_points_.size();
   hs.size = pts.size();
@@ -437,37 +513,21 @@ void IterativeClosestPoint::uploadLayout() {
 IcpResult IterativeClosestPoint::align(const Matrix4d& guess) {
   if (sources_.size() != 1)
     throw dw::Error(
-        "pcl::gpu::IterativeClosestPoint::align: needs exactly one source (use alignAll for a batch)");
+        "dw::gpu::IterativeClosestPoint::align: needs exactly one source (use alignAll for a batch)");
   return alignAll({guess}).front();
 }
 
 std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4d>& guesses) {
   const std::size_t ns = sources_.size();
-  if (ns == 0) throw dw::Error("pcl::gpu::IterativeClosestPoint: no source set");
+  if (ns == 0) throw dw::Error("dw::gpu::IterativeClosestPoint: no source set");
   if (!guesses.empty() && guesses.size() != ns)
-    throw dw::Error("pcl::gpu::IterativeClosestPoint::alignAll: one guess per source, or none");
+    throw dw::Error("dw::gpu::IterativeClosestPoint::alignAll: one guess per source, or none");
   if (dirty_) uploadLayout();
   const auto& o = target_->origin();
 
   std::vector<SourceState> init(ns);
-  for (std::size_t s = 0; s < ns; ++s) {
-    const Matrix4d g = guesses.empty() ? identityMatrix4d() : guesses[s];
-    for (double x : g)
-      if (!std::isfinite(x)) throw dw::Error("pcl::gpu::IterativeClosestPoint: non-finite initial guess");
-    SourceState& st = init[s];
-    std::memset(&st, 0, sizeof st);
-    const double* c = sources_[s].centroid;
-    for (int a = 0; a < 3; ++a) {
-      for (int b = 0; b < 3; ++b) st.r[3 * a + b] = g[4 * a + b];
-      // target_local = G_R (p + c) + G_t - o
-      st.t[a] = g[4 * a] * c[0] + g[4 * a + 1] * c[1] + g[4 * a + 2] * c[2] + g[4 * a + 3] - o[a];
-      st.c[a] = c[a];
-    }
-    for (int k = 0; k < 9; ++k) st.rf[k] = float(st.r[k]);
-    for (int a = 0; a < 3; ++a) st.rf[9 + a] = float(st.t[a]);
-    st.prev_mse = std::numeric_limits<double>::max();
-    st.state = int(ConvergenceState::NotConverged);
-  }
+  for (std::size_t s = 0; s < ns; ++s)
+    init[s] = initialState(guesses.empty() ? identityMatrix4d() : guesses[s], sources_[s].centroid, o);
   checkCuda(
       cudaMemcpyAsync(states_.ptr(), init.data(), ns * sizeof(SourceState), cudaMemcpyHostToDevice, stream_),
       "ICP: upload state");
@@ -476,22 +536,21 @@ std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4
   checkCuda(cudaMemsetAsync(done_count_.ptr(), 0, sizeof(unsigned), stream_), "ICP: reset");
   checkCuda(cudaMemsetAsync(tickets_.ptr(), 0, tickets_.size() * sizeof(unsigned), stream_),
             "ICP: reset tickets");
+  runIterations();
 
-  SolveParams prm{};
-  prm.max_dist2 = params_.max_correspondence_distance * params_.max_correspondence_distance;
-  prm.rotation_threshold = params_.transformation_rotation_epsilon > 0
-                               ? params_.transformation_rotation_epsilon
-                               : 1.0 - params_.transformation_epsilon;
-  prm.translation_threshold = params_.transformation_epsilon;
-  prm.relative_mse = params_.euclidean_fitness_epsilon;
-  prm.absolute_mse = params_.mse_threshold_absolute;
-  for (int a = 0; a < 3; ++a) prm.origin[a] = o[a];
-  prm.max_iterations = params_.max_iterations;
-  prm.max_similar = params_.max_iterations_similar_transforms;
-  prm.failure_after_max = params_.failure_after_max_iterations ? 1 : 0;
-  prm.float_criteria = params_.float_transform_criteria ? 1 : 0;
-  prm.min_correspondences = params_.min_number_correspondences;
+  std::vector<SourceState> fin(ns);
+  checkCuda(
+      cudaMemcpyAsync(fin.data(), states_.ptr(), ns * sizeof(SourceState), cudaMemcpyDeviceToHost, stream_),
+      "ICP: download state");
+  checkCuda(cudaStreamSynchronize(stream_), "ICP: align");
+  std::vector<IcpResult> out(ns);
+  for (std::size_t s = 0; s < ns; ++s) out[s] = resultOf(fin[s], o);
+  return out;
+}
 
+void IterativeClosestPoint::runIterations() {
+  const std::size_t ns = sources_.size();
+  const SolveParams prm = solveParams(params_, target_->origin());
   auto* state_ptr = reinterpret_cast<SourceState*>(states_.ptr());
   volatile unsigned* done_flag = done_host_;
   *done_flag = 0;
@@ -510,33 +569,8 @@ std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4
     if (*done_flag >= ns) break;
     if (num_blocks_ > 0) {
       const DeviceGraphView g = target_->view();
-      const std::size_t n = host_points_.size();
-      switch (target_->groupSize()) {
-        case 1:
-          launchCorrespond<1>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2,
-                              hints_.ptr(), corr_d2_.ptr(), stream_);
-          break;
-        case 2:
-          launchCorrespond<2>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2,
-                              hints_.ptr(), corr_d2_.ptr(), stream_);
-          break;
-        case 8:
-          launchCorrespond<8>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2,
-                              hints_.ptr(), corr_d2_.ptr(), stream_);
-          break;
-        case 16:
-          launchCorrespond<16>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2,
-                               hints_.ptr(), corr_d2_.ptr(), stream_);
-          break;
-        case 32:
-          launchCorrespond<32>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2,
-                               hints_.ptr(), corr_d2_.ptr(), stream_);
-          break;
-        default:
-          launchCorrespond<4>(g, points_.ptr(), point_source_.ptr(), n, state_ptr, prm.max_dist2,
-                              hints_.ptr(), corr_d2_.ptr(), stream_);
-          break;
-      }
+      launchCorrespondFor(target_->groupSize(), g, points_.ptr(), point_source_.ptr(), host_points_.size(),
+                          state_ptr, prm.max_dist2, hints_.ptr(), corr_d2_.ptr(), stream_);
       accumulateKernel<<<num_blocks_, kBlock, 0, stream_>>>(
           g, points_.ptr(), hints_.ptr(), corr_d2_.ptr(), block_source_.ptr(), source_meta_.ptr(), state_ptr,
           partials_.ptr(), tickets_.ptr(), sums_.ptr());
@@ -546,34 +580,7 @@ std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4
     checkCuda(cudaGetLastError(), "ICP: iteration launch");
     checkCuda(cudaEventRecord(events_[it % kAhead], stream_), "ICP: event");
   }
-  std::vector<SourceState> fin(ns);
-  checkCuda(
-      cudaMemcpyAsync(fin.data(), states_.ptr(), ns * sizeof(SourceState), cudaMemcpyDeviceToHost, stream_),
-      "ICP: download state");
-  checkCuda(cudaStreamSynchronize(stream_), "ICP: align");
-
-  std::vector<IcpResult> out(ns);
-  for (std::size_t s = 0; s < ns; ++s) {
-    const SourceState& st = fin[s];
-    IcpResult& r = out[s];
-    for (int a = 0; a < 3; ++a) {
-      for (int b = 0; b < 3; ++b) r.transformation[4 * a + b] = st.r[3 * a + b];
-      // world: target_w = r (p_w - c) + t + o
-      r.transformation[4 * a + 3] =
-          st.t[a] + o[a] - (st.r[3 * a] * st.c[0] + st.r[3 * a + 1] * st.c[1] + st.r[3 * a + 2] * st.c[2]);
-    }
-    r.transformation[12] = r.transformation[13] = r.transformation[14] = 0.0;
-    r.transformation[15] = 1.0;
-    r.iterations = st.iterations;
-    r.state = static_cast<ConvergenceState>(st.state);
-    r.converged = r.state != ConvergenceState::NotConverged &&
-                  r.state != ConvergenceState::NoCorrespondences &&
-                  r.state != ConvergenceState::FailureAfterMaxIterations;
-    r.mse = st.mse;
-    r.correspondences = st.count;
-  }
-  return out;
 }
 
 }  // namespace gpu
-}  // namespace pcl
+}  // namespace dw

@@ -8,7 +8,7 @@
 
 #include "pcl_delaunay_walk/gpu/delaunay_walk.h"
 
-namespace pcl {
+namespace dw {
 namespace gpu {
 namespace detail {
 
@@ -138,7 +138,7 @@ __device__ __forceinline__ void scanNeighbours(const Tile& tile, const DeviceGra
 
 /// The walk with G lanes of a tile scanning one neighbourhood together (G = 1: one thread per query).
 /// Moves to a strictly nearer neighbour while one exists: exact (a non-nearest vertex always has a
-/// strictly nearer Delaunay neighbour, DESIGN.md §3) and terminating (the distance strictly
+/// strictly nearer Delaunay neighbour, docs/architecture.md) and terminating (the distance strictly
 /// decreases). Every lane of the tile returns the same result.
 ///
 /// Two shortcuts keep it exact:
@@ -202,4 +202,4 @@ __device__ __forceinline__ std::uint32_t walkThread(const DeviceGraphView& g, fl
 
 }  // namespace detail
 }  // namespace gpu
-}  // namespace pcl
+}  // namespace dw

@@ -23,7 +23,7 @@ namespace dwgpu_test {
 /// Skips the current test where no CUDA device exists (CI has none; the device machine has one).
 #define DW_REQUIRE_CUDA_DEVICE()                                                                     \
   do {                                                                                               \
-    if (pcl::gpu::cudaDeviceCount() == 0)                                                            \
+    if (dw::gpu::cudaDeviceCount() == 0)                                                            \
       GTEST_SKIP() << "no CUDA device: GPU tests run on a machine with one (tools/device/run.sh)"; \
   } while (0)
 

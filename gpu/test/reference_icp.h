@@ -17,14 +17,14 @@ namespace dwgpu_test {
 struct ReferenceIcpResult {
   Eigen::Matrix4d transformation = Eigen::Matrix4d::Identity();
   int iterations = 0;
-  pcl::gpu::ConvergenceState state = pcl::gpu::ConvergenceState::NotConverged;
+  dw::gpu::ConvergenceState state = dw::gpu::ConvergenceState::NotConverged;
   bool converged = false;
 };
 
 inline ReferenceIcpResult referenceIcp(const dw::NeighbourSearch& target,
                                        const std::vector<double>& source_xyz,
-                                       const pcl::gpu::IcpParameters& p, const Eigen::Matrix4d& guess) {
-  using pcl::gpu::ConvergenceState;
+                                       const dw::gpu::IcpParameters& p, const Eigen::Matrix4d& guess) {
+  using dw::gpu::ConvergenceState;
   const dw::DelaunayGraph& g = target.graph();
   const Eigen::Vector3d origin(g.origin[0], g.origin[1], g.origin[2]);
   // PCL keeps the transformed source as float points and transforms it in place every iteration.
@@ -133,14 +133,14 @@ inline ReferenceIcpResult referenceIcp(const dw::NeighbourSearch& target,
   return r;
 }
 
-inline Eigen::Matrix4d toEigen(const pcl::gpu::Matrix4d& m) {
+inline Eigen::Matrix4d toEigen(const dw::gpu::Matrix4d& m) {
   Eigen::Matrix4d e;
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) e(r, c) = m[4 * r + c];
   return e;
 }
-inline pcl::gpu::Matrix4d fromEigen(const Eigen::Matrix4d& e) {
-  pcl::gpu::Matrix4d m;
+inline dw::gpu::Matrix4d fromEigen(const Eigen::Matrix4d& e) {
+  dw::gpu::Matrix4d m;
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) m[4 * r + c] = e(r, c);
   return m;

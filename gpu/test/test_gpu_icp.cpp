@@ -1,4 +1,4 @@
-// pcl::gpu::IterativeClosestPoint against the host reference that follows PCL's rules, on real data
+// dw::gpu::IterativeClosestPoint against the host reference that follows PCL's rules, on real data
 // (dragon, bunny scans, a LiDAR frame pair), plus the batched form, PCL's edge semantics and bad input.
 #include <gtest/gtest.h>
 
@@ -15,10 +15,10 @@ namespace {
 
 using dwgpu_test::fromEigen;
 using dwgpu_test::toEigen;
-using pcl::gpu::ConvergenceState;
-using pcl::gpu::DelaunayWalk;
-using pcl::gpu::IcpParameters;
-using pcl::gpu::IterativeClosestPoint;
+using dw::gpu::ConvergenceState;
+using dw::gpu::DelaunayWalk;
+using dw::gpu::IcpParameters;
+using dw::gpu::IterativeClosestPoint;
 
 struct Target {
   std::shared_ptr<const dw::DelaunayGraph> graph;
@@ -51,7 +51,7 @@ Eigen::Matrix4d motion(double angle, const Eigen::Vector3d& axis, const Eigen::V
   return m;
 }
 
-/// GPU result against the host reference: element-wise within 1e-4 (the bar).
+/// GPU result against the host reference: element-wise within 1e-4 (the module's bar, docs/gpu.md).
 void expectSameAsReference(const Target& target, const std::vector<double>& source, const IcpParameters& p,
                            const Eigen::Matrix4d& guess, const char* what) {
   const auto ref = dwgpu_test::referenceIcp(*target.cpu, source, p, guess);
@@ -63,7 +63,7 @@ void expectSameAsReference(const Target& target, const std::vector<double>& sour
   std::printf(
       "[%s] reference: %d iterations (%s); GPU: %d iterations (%s), %u correspondences, MSE %.3g; "
       "max |diff| %.2e\n",
-      what, ref.iterations, pcl::gpu::toString(ref.state), res.iterations, pcl::gpu::toString(res.state),
+      what, ref.iterations, dw::gpu::toString(ref.state), res.iterations, dw::gpu::toString(res.state),
       res.correspondences, res.mse, (got - ref.transformation).cwiseAbs().maxCoeff());
   EXPECT_TRUE(got.isApprox(got, 0.0));
   for (int r = 0; r < 4; ++r)
@@ -157,7 +157,7 @@ TEST_F(GpuIcp, BatchEqualsOneByOne) {
   IterativeClosestPoint batch(target.gpu);
   batch.setParameters(p);
   for (const auto& s : sources) batch.addSource(dw::PointView::fromDouble(s.data(), s.size() / 3));
-  std::vector<pcl::gpu::Matrix4d> guesses(sources.size(), pcl::gpu::identityMatrix4d());
+  std::vector<dw::gpu::Matrix4d> guesses(sources.size(), dw::gpu::identityMatrix4d());
   guesses[1][3] = 0.001;  // one non-identity guess
   const auto all = batch.alignAll(guesses);
   ASSERT_EQ(all.size(), sources.size());
@@ -173,7 +173,7 @@ TEST_F(GpuIcp, BatchEqualsOneByOne) {
   EXPECT_EQ(all.back().state, ConvergenceState::NoCorrespondences);
   EXPECT_FALSE(all.back().converged);
   EXPECT_EQ(all.back().iterations, 0);
-  EXPECT_EQ(all.back().transformation, pcl::gpu::identityMatrix4d());
+  EXPECT_EQ(all.back().transformation, dw::gpu::identityMatrix4d());
 }
 
 TEST_F(GpuIcp, PclLoopSemantics) {
@@ -218,8 +218,8 @@ TEST_F(GpuIcp, BadInputThrows) {
   icp.addSource(dw::PointView::fromDouble(s.data(), 100));
   icp.addSource(dw::PointView::fromDouble(s.data(), 100));
   EXPECT_THROW(icp.align(), dw::Error);                                   // two sources: use alignAll
-  EXPECT_THROW(icp.alignAll({pcl::gpu::identityMatrix4d()}), dw::Error);  // one guess for two sources
-  auto bad = pcl::gpu::identityMatrix4d();
+  EXPECT_THROW(icp.alignAll({dw::gpu::identityMatrix4d()}), dw::Error);  // one guess for two sources
+  auto bad = dw::gpu::identityMatrix4d();
   bad[3] = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(icp.alignAll({bad, bad}), dw::Error);
   IcpParameters p;

@@ -1,4 +1,4 @@
-// pcl::gpu::DelaunayWalk against brute force (GPU and host): exact NN from every start, kNN, radius,
+// dw::gpu::DelaunayWalk against brute force (GPU and host): exact NN from every start, kNN, radius,
 // degenerate graphs and bad input.
 #include <gtest/gtest.h>
 
@@ -15,8 +15,8 @@
 namespace {
 
 using dwgpu_test::exactDist2;
-using pcl::gpu::DelaunayWalk;
-using pcl::gpu::DeviceArray;
+using dw::gpu::DelaunayWalk;
+using dw::gpu::DeviceBuffer;
 constexpr std::uint32_t kInv = dw::kInvalidIndex;
 
 dw::DelaunayGraph buildGraph(const std::vector<double>& xyz) {
@@ -50,10 +50,10 @@ struct NnOut {
 
 NnOut runNearest(const DelaunayWalk& w, const std::vector<float4>& q,
                  const std::vector<std::uint32_t>* hints) {
-  DeviceArray<float4> dq;
+  DeviceBuffer<float4> dq;
   dq.upload(q);
-  DeviceArray<std::uint32_t> dh, dv, ds;
-  DeviceArray<float> dd;
+  DeviceBuffer<std::uint32_t> dh, dv, ds;
+  DeviceBuffer<float> dd;
   if (hints) dh.upload(*hints);
   w.nearest(dq, hints ? &dh : nullptr, dv, dd, &ds);
   NnOut o;
@@ -115,10 +115,10 @@ TEST_F(GpuWalk, NearestEqualsBruteForceForEveryGroupSizeAndStart) {
 
   // GPU brute force agrees with the host bit for bit.
   {
-    DeviceArray<float4> dq;
+    DeviceBuffer<float4> dq;
     dq.upload(q);
-    DeviceArray<std::uint32_t> dv(q.size());
-    DeviceArray<float> dd(q.size());
+    DeviceBuffer<std::uint32_t> dv(q.size());
+    DeviceBuffer<float> dd(q.size());
     w.bruteForceNearest(dq.ptr(), q.size(), dv.ptr(), dd.ptr());
     NnOut o;
     dv.download(o.v);
@@ -342,10 +342,10 @@ TEST_F(GpuWalk, KnnAndRadiusEqualBruteForceWithDuplicates) {
   DelaunayWalk w(g);
   auto q = randomQueries(700, 56, -1.3f, 1.3f);
   q.push_back(float4{std::numeric_limits<float>::quiet_NaN(), 0.f, 0.f, 0.f});
-  DeviceArray<float4> dq;
+  DeviceBuffer<float4> dq;
   dq.upload(q);
-  DeviceArray<std::uint32_t> di, dc;
-  DeviceArray<float> dd;
+  DeviceBuffer<std::uint32_t> di, dc;
+  DeviceBuffer<float> dd;
   std::vector<std::uint32_t> idx, counts;
   std::vector<float> d2;
   for (unsigned k : {1u, 5u, 16u, 33u, 64u}) {
@@ -370,10 +370,10 @@ TEST_F(GpuWalk, KnnAndRadiusEqualBruteForceWithDuplicates) {
 TEST_F(GpuWalk, BadArgumentsThrow) {
   const auto g = buildGraph(dwgpu_test::randomCloud(100, 1));
   DelaunayWalk w(g);
-  DeviceArray<float4> dq;
+  DeviceBuffer<float4> dq;
   dq.upload(randomQueries(10, 2, -1, 1));
-  DeviceArray<std::uint32_t> di, dc, dh;
-  DeviceArray<float> dd;
+  DeviceBuffer<std::uint32_t> di, dc, dh;
+  DeviceBuffer<float> dd;
   EXPECT_THROW(w.knn(dq, 0, nullptr, di, dd, dc), dw::Error);
   EXPECT_THROW(w.knn(dq, DelaunayWalk::kMaxK + 1, nullptr, di, dd, dc), dw::Error);
   EXPECT_THROW(w.radius(dq, -1.f, 8, nullptr, di, dd, dc), dw::Error);

@@ -20,7 +20,7 @@ Eigen::Matrix3d hornRotation(const Eigen::Matrix3d& h) {
   double s[3][3], r[9];
   for (int a = 0; a < 3; ++a)
     for (int b = 0; b < 3; ++b) s[a][b] = h(a, b);
-  pcl::gpu::rotationFromCrossCovariance(s, r);
+  dw::gpu::rotationFromCrossCovariance(s, r);
   Eigen::Matrix3d out;
   for (int a = 0; a < 3; ++a)
     for (int b = 0; b < 3; ++b) out(a, b) = r[3 * a + b];

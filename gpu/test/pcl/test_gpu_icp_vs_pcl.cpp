@@ -1,5 +1,5 @@
 // The GPU ICP against the CPU pcl::IterativeClosestPointDelaunayWalk (stock PCL ICP with the walk),
-// in one process, on the bunny scans, the dragon and the LiDAR frame pair: the bar is the same
+// in one process, on the bunny scans, the dragon and the LiDAR frame pair: the bar is the same
 // final transform element-wise within 1e-4. Compiled only where PCL exists; the GPU half runs where a
 // CUDA device exists too (the device machine, through tools/device/bundle.sh). Without a device the
 // PCL half still checks the host reference (gpu/test/reference_icp.h, which the GPU loop equals to
@@ -50,11 +50,11 @@ struct Case {
   const char* name;
   Cloud::Ptr target, source;
   Eigen::Matrix4f guess;
-  pcl::gpu::IcpParameters p;
+  dw::gpu::IcpParameters p;
 };
 
 /// Runs the CPU class with the given Scalar and the GPU loop on the same clouds; `bar` is the largest
-/// element-wise difference allowed (the 1e-4, except where PCL's own float arithmetic is
+/// element-wise difference allowed (the 1e-4 bar, except where PCL's own float arithmetic is
 /// known to be farther than that from exact: see the LiDAR case).
 template <typename Scalar>
 void runCase(const Case& c, double bar) {
@@ -71,7 +71,7 @@ void runCase(const Case& c, double bar) {
   const Eigen::Matrix4d pcl_t = cpu.getFinalTransformation().template cast<double>();
   const auto pcl_state = cpu.getConvergeCriteria()->getConvergenceState();
   const int pcl_iterations = cpu.iterations();
-  const pcl::gpu::IcpParameters p = pcl::gpu::parametersFrom(cpu);  // the same settings, read off PCL
+  const dw::gpu::IcpParameters p = pcl::gpu::parametersFrom(cpu);  // the same settings, read off PCL
 
   // Host reference (PCL's rules, double arithmetic except where PCL's float matters).
   const std::vector<double> txyz = toXyz(*c.target), sxyz = toXyz(*c.source);
@@ -85,16 +85,16 @@ void runCase(const Case& c, double bar) {
       "[%s] PCL<%s> (CPU walk): %d iterations (state %d, converged %d); reference: %d iterations (%s); "
       "max |reference - PCL| %.2e\n",
       c.name, scalar, pcl_iterations, int(pcl_state), int(cpu.hasConverged()), ref.iterations,
-      pcl::gpu::toString(ref.state), ref_diff);
+      dw::gpu::toString(ref.state), ref_diff);
   EXPECT_LT(ref_diff, bar) << c.name << " " << scalar << ": the host reference no longer follows PCL";
   EXPECT_EQ(ref.converged, cpu.hasConverged()) << c.name << " " << scalar;
 
-  if (pcl::gpu::cudaDeviceCount() == 0) {
+  if (dw::gpu::cudaDeviceCount() == 0) {
     std::printf("[%s] no CUDA device: GPU half not run\n", c.name);
     return;
   }
-  auto walk = std::make_shared<pcl::gpu::DelaunayWalk>(*graph);
-  pcl::gpu::IterativeClosestPoint gpu(walk);
+  auto walk = std::make_shared<dw::gpu::DelaunayWalk>(*graph);
+  dw::gpu::IterativeClosestPoint gpu(walk);
   gpu.setParameters(p);
   Eigen::Matrix4f gpu_t;
   const auto r = pcl::gpu::align(gpu, *c.source, c.guess, gpu_t);
@@ -102,7 +102,7 @@ void runCase(const Case& c, double bar) {
   const double diff = (gd - pcl_t).cwiseAbs().maxCoeff();
   std::printf(
       "[%s] GPU: %d iterations (%s), %u correspondences; max |GPU - PCL<%s>| %.2e, |GPU - reference| %.2e\n",
-      c.name, r.iterations, pcl::gpu::toString(r.state), r.correspondences, scalar, diff,
+      c.name, r.iterations, dw::gpu::toString(r.state), r.correspondences, scalar, diff,
       (gd - ref.transformation).cwiseAbs().maxCoeff());
   for (int i = 0; i < 4; ++i)
     for (int j = 0; j < 4; ++j)
@@ -176,7 +176,7 @@ TEST(GpuIcpVsPcl, LidarFramePair) {
   c.p.max_correspondence_distance = 1.0;
   c.p.transformation_epsilon = 1e-10;
   c.p.euclidean_fitness_epsilon = 1e-7;
-  // PCL<double> sums in double like the GPU: the bar applies.
+  // PCL<double> sums in double like the GPU: the 1e-4 bar applies.
   runCase<double>(c, 1e-4);
   // PCL<float> sums the centroids of ~69k points with coordinates of tens of metres sequentially in
   // float (pcl::compute3DCentroid): ~1e-4 m of error per step, 1.9e-4..4e-4 from exact arithmetic after

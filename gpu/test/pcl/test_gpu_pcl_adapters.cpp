@@ -5,7 +5,9 @@
 
 #include <cmath>
 #include <limits>
+#include <type_traits>
 
+#include "../pcl_gpu_device_array.h"  // PCL's pcl::gpu::DeviceArray (or a stand-in) beside our PCL face
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/gpu/pcl_adapters.h"
 
@@ -53,8 +55,17 @@ TEST(GpuPclAdapters, TransformsRoundTripAndSettingsComeFromPcl) {
   EXPECT_EQ(p.max_correspondence_distance, 0.25);
 }
 
+TEST(GpuPclAdapters, PclFaceNamesTheEngineAndSharesAUnitWithPclGpu) {
+  static_assert(std::is_same<pcl::gpu::DelaunayWalk, dw::gpu::DelaunayWalk>::value, "one class, two names");
+  static_assert(std::is_same<pcl::gpu::IterativeClosestPoint, dw::gpu::IterativeClosestPoint>::value,
+                "one class, two names");
+  static_assert(!std::is_same<pcl::gpu::DeviceArray<float>, dw::gpu::DeviceBuffer<float>>::value,
+                "PCL's container and ours are distinct classes");
+  EXPECT_TRUE(dw::gpu::DeviceBuffer<float>().empty());
+}
+
 TEST(GpuPclAdapters, AlignsAPclCloud) {
-  if (pcl::gpu::cudaDeviceCount() == 0)
+  if (dw::gpu::cudaDeviceCount() == 0)
     GTEST_SKIP() << "no CUDA device: the GPU part runs on a machine with one";
   pcl::PointCloud<pcl::PointXYZ> target, source;
   for (int i = 0; i < 20; ++i)
@@ -64,9 +75,9 @@ TEST(GpuPclAdapters, AlignsAPclCloud) {
       source.push_back(pcl::PointXYZ(x + 0.01f, y - 0.005f, z));
     }
   const auto graph = dw::buildDelaunayGraph(pcl::gpu::toPointView(target));
-  auto walk = std::make_shared<pcl::gpu::DelaunayWalk>(graph);
-  pcl::gpu::IterativeClosestPoint icp(walk);
-  pcl::gpu::IcpParameters p;
+  auto walk = std::make_shared<dw::gpu::DelaunayWalk>(graph);
+  dw::gpu::IterativeClosestPoint icp(walk);
+  dw::gpu::IcpParameters p;
   p.max_iterations = 50;
   p.max_correspondence_distance = 0.1;
   icp.setParameters(p);

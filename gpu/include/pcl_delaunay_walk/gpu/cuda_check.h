@@ -1,6 +1,6 @@
 /// \file cuda_check.h
 /// \brief CUDA errors as exceptions: every runtime call of the GPU module goes through checkCuda, so a
-/// failure surfaces as pcl::gpu::CudaError (a dw::Error) naming the call, never as a silent bad result.
+/// failure surfaces as dw::gpu::CudaError (a dw::Error) naming the call, never as a silent bad result.
 #pragma once
 
 #include <cuda_runtime_api.h>
@@ -9,14 +9,14 @@
 
 #include "pcl_delaunay_walk/core/graph/types.h"
 
-namespace pcl {
+namespace dw {
 namespace gpu {
 
 /// A failed CUDA runtime call or kernel launch; what() names the operation and CUDA's message.
 class CudaError : public dw::Error {
  public:
   CudaError(cudaError_t code, const std::string& what)
-      : dw::Error("pcl::gpu: " + what + ": " + cudaGetErrorName(code) + " (" + cudaGetErrorString(code) + ")"),
+      : dw::Error("dw::gpu: " + what + ": " + cudaGetErrorName(code) + " (" + cudaGetErrorString(code) + ")"),
         code_(code) {}
   cudaError_t code() const { return code_; }
 
@@ -40,4 +40,4 @@ inline int cudaDeviceCount() {
 }
 
 }  // namespace gpu
-}  // namespace pcl
+}  // namespace dw

@@ -1,5 +1,5 @@
 /// \file delaunay_walk.h
-/// \brief pcl::gpu::DelaunayWalk: exact batch nearest-neighbour, kNN and radius search on the GPU by the
+/// \brief dw::gpu::DelaunayWalk: exact batch nearest-neighbour, kNN and radius search on the GPU by the
 /// Delaunay walk (Anderson et al. 2022), over a graph built on the host by the core (dw::DelaunayGraph).
 ///
 /// Device layout (built from the core's CSR on upload): vertices as float4 {x, y, z, safe-ball r^2}
@@ -7,7 +7,7 @@
 /// per directed edge, the neighbour index j (4 bytes instead of the core's 20-byte record), plus the
 /// neighbour's position inline where that fits L2. The walk compares squared distances
 /// |q - x_j|^2 < |q - x_i|^2 directly, which is the same exactness argument as the core's c > m test
-/// (DESIGN.md §3): in float where float decides with margin, otherwise in double from the float
+/// (docs/architecture.md, "Why the searches are exact"): in float where float decides with margin, otherwise in double from the float
 /// coordinates, the very comparison a brute-force search makes. Reported distances are the doubles
 /// rounded to float.
 #pragma once
@@ -21,9 +21,9 @@
 
 #include "pcl_delaunay_walk/core/graph/delaunay_graph.h"
 #include "pcl_delaunay_walk/core/graph/point_view.h"
-#include "pcl_delaunay_walk/gpu/device_array.h"
+#include "pcl_delaunay_walk/gpu/device_buffer.h"
 
-namespace pcl {
+namespace dw {
 namespace gpu {
 
 /// Raw device pointers of an uploaded graph: what kernels receive by value.
@@ -109,10 +109,10 @@ class DelaunayWalk {
   void nearest(const float4* queries, std::size_t n, const std::uint32_t* hints, std::uint32_t* vertices,
                float* dist2, std::uint32_t* steps = nullptr, cudaStream_t stream = nullptr) const;
 
-  /// \brief DeviceArray form of nearest(): sizes the outputs to the queries.
-  void nearest(const DeviceArray<float4>& queries, const DeviceArray<std::uint32_t>* hints,
-               DeviceArray<std::uint32_t>& vertices, DeviceArray<float>& dist2,
-               DeviceArray<std::uint32_t>* steps = nullptr, cudaStream_t stream = nullptr) const;
+  /// \brief DeviceBuffer form of nearest(): sizes the outputs to the queries.
+  void nearest(const DeviceBuffer<float4>& queries, const DeviceBuffer<std::uint32_t>* hints,
+               DeviceBuffer<std::uint32_t>& vertices, DeviceBuffer<float>& dist2,
+               DeviceBuffer<std::uint32_t>* steps = nullptr, cudaStream_t stream = nullptr) const;
 
   /// \brief Exact k nearest input points of each query, ascending distance.
   /// \param[in] queries device queries
@@ -121,16 +121,16 @@ class DelaunayWalk {
   /// \param[out] indices n*k input indices (row i = query i); unused slots dw::kInvalidIndex
   /// \param[out] dist2 n*k squared distances; unused slots +inf
   /// \param[out] counts n: how many were found (min(k, finite inputs); 0 for a non-finite query)
-  void knn(const DeviceArray<float4>& queries, unsigned k, const DeviceArray<std::uint32_t>* hints,
-           DeviceArray<std::uint32_t>& indices, DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts,
+  void knn(const DeviceBuffer<float4>& queries, unsigned k, const DeviceBuffer<std::uint32_t>* hints,
+           DeviceBuffer<std::uint32_t>& indices, DeviceBuffer<float>& dist2, DeviceBuffer<std::uint32_t>& counts,
            cudaStream_t stream = nullptr) const;
 
   /// \brief Input points within `radius` (dist2 <= radius^2, in double) of each query: the max_nn nearest of
   /// them, ascending. Output is bounded: n*max_nn slots, counts[i] says how many are valid. \param[in] radius
   /// search radius (>= 0, finite) \param[in] max_nn 1 .. kMaxK
-  void radius(const DeviceArray<float4>& queries, float radius, unsigned max_nn,
-              const DeviceArray<std::uint32_t>* hints, DeviceArray<std::uint32_t>& indices,
-              DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts,
+  void radius(const DeviceBuffer<float4>& queries, float radius, unsigned max_nn,
+              const DeviceBuffer<std::uint32_t>* hints, DeviceBuffer<std::uint32_t>& indices,
+              DeviceBuffer<float>& dist2, DeviceBuffer<std::uint32_t>& counts,
               cudaStream_t stream = nullptr) const;
 
   /// \brief Exact nearest vertex by brute force (every query against every vertex, shared-memory tiles).
@@ -142,20 +142,20 @@ class DelaunayWalk {
   void verticesToInputs(std::uint32_t* vertices, std::size_t n, cudaStream_t stream = nullptr) const;
 
  private:
-  void expand(const DeviceArray<float4>& queries, unsigned k, double radius2,
-              const DeviceArray<std::uint32_t>* hints, DeviceArray<std::uint32_t>& indices,
-              DeviceArray<float>& dist2, DeviceArray<std::uint32_t>& counts, cudaStream_t stream) const;
+  void expand(const DeviceBuffer<float4>& queries, unsigned k, double radius2,
+              const DeviceBuffer<std::uint32_t>* hints, DeviceBuffer<std::uint32_t>& indices,
+              DeviceBuffer<float>& dist2, DeviceBuffer<std::uint32_t>& counts, cudaStream_t stream) const;
   void buildStartGrid(const dw::DelaunayGraph& graph, double cells_per_vertex);
   void applyInlineNeighbourPositions(bool on);
 
-  DeviceArray<float4> points_;
-  DeviceArray<std::uint32_t> offsets_;
-  DeviceArray<std::uint32_t> neighbours_;
-  DeviceArray<float4> edge_points_;
-  DeviceArray<std::uint32_t> originals_offsets_;
-  DeviceArray<std::uint32_t> originals_;
-  DeviceArray<std::uint32_t> grid_seeds_;
-  DeviceArray<std::uint32_t> vertex_to_input_dev_;
+  DeviceBuffer<float4> points_;
+  DeviceBuffer<std::uint32_t> offsets_;
+  DeviceBuffer<std::uint32_t> neighbours_;
+  DeviceBuffer<float4> edge_points_;
+  DeviceBuffer<std::uint32_t> originals_offsets_;
+  DeviceBuffer<std::uint32_t> originals_;
+  DeviceBuffer<std::uint32_t> grid_seeds_;
+  DeviceBuffer<std::uint32_t> vertex_to_input_dev_;
   std::vector<std::uint32_t> vertex_to_input_;
   DeviceGraphView view_;
   std::array<double, 3> origin_{{0.0, 0.0, 0.0}};
@@ -167,4 +167,4 @@ class DelaunayWalk {
 };
 
 }  // namespace gpu
-}  // namespace pcl
+}  // namespace dw

@@ -1,5 +1,5 @@
 /// \file iterative_closest_point.h
-/// \brief pcl::gpu::IterativeClosestPoint: the whole point-to-point ICP loop on the device, with the
+/// \brief dw::gpu::IterativeClosestPoint: the whole point-to-point ICP loop on the device, with the
 /// semantics of PCL 1.13's IterativeClosestPoint + TransformationEstimationSVD +
 /// DefaultConvergenceCriteria, and a batched form that registers many sources against one target.
 ///
@@ -24,9 +24,9 @@
 
 #include "pcl_delaunay_walk/core/graph/point_view.h"
 #include "pcl_delaunay_walk/gpu/delaunay_walk.h"
-#include "pcl_delaunay_walk/gpu/device_array.h"
+#include "pcl_delaunay_walk/gpu/device_buffer.h"
 
-namespace pcl {
+namespace dw {
 namespace gpu {
 
 /// Row-major 4x4 rigid transform (double), world frame: target ~ T * source.
@@ -111,6 +111,8 @@ class IterativeClosestPoint {
     double centroid[3] = {0, 0, 0};   ///< device points are stored relative to it (float precision)
   };
   void uploadLayout();
+  /// Queues the iterations (walk, accumulate, solve) until every source is done or max_iterations.
+  void runIterations();
 
   DelaunayWalk::ConstPtr target_;
   IcpParameters params_;
@@ -118,23 +120,23 @@ class IterativeClosestPoint {
   std::vector<float4> host_points_;  ///< concatenated, centred, Morton-sorted per source
   bool dirty_ = true;
 
-  DeviceArray<float4> points_;
-  DeviceArray<std::uint32_t> hints_;         ///< per point: last nearest vertex (PNN start)
-  DeviceArray<float> corr_d2_;               ///< per point: accepted squared distance, or -1
-  DeviceArray<std::uint32_t> point_source_;  ///< per point: its source
-  DeviceArray<std::uint32_t> block_source_;
-  DeviceArray<std::uint32_t> source_meta_;  ///< per source: begin, size, first block, #blocks
-  DeviceArray<double> partials_;
-  DeviceArray<unsigned char> states_;  ///< per-source solver state (see the .cu)
+  DeviceBuffer<float4> points_;
+  DeviceBuffer<std::uint32_t> hints_;         ///< per point: last nearest vertex (PNN start)
+  DeviceBuffer<float> corr_d2_;               ///< per point: accepted squared distance, or -1
+  DeviceBuffer<std::uint32_t> point_source_;  ///< per point: its source
+  DeviceBuffer<std::uint32_t> block_source_;
+  DeviceBuffer<std::uint32_t> source_meta_;  ///< per source: begin, size, first block, #blocks
+  DeviceBuffer<double> partials_;
+  DeviceBuffer<unsigned char> states_;  ///< per-source solver state (see the .cu)
   std::uint32_t num_blocks_ = 0;
   cudaStream_t stream_ = nullptr;
   std::array<cudaEvent_t, 3> events_{};  ///< ring: limits how many iterations are queued ahead
   unsigned* done_host_ = nullptr;        ///< mapped pinned: how many sources are done
   unsigned* done_host_dev_ = nullptr;    ///< its device address
-  DeviceArray<unsigned> done_count_;
-  DeviceArray<unsigned> tickets_;  ///< per source: blocks finished this iteration
-  DeviceArray<double> sums_;       ///< per source: the 17 sums of this iteration
+  DeviceBuffer<unsigned> done_count_;
+  DeviceBuffer<unsigned> tickets_;  ///< per source: blocks finished this iteration
+  DeviceBuffer<double> sums_;       ///< per source: the 17 sums of this iteration
 };
 
 }  // namespace gpu
-}  // namespace pcl
+}  // namespace dw

@@ -1,8 +1,9 @@
 /// \file pcl_adapters.h
-/// \brief Thin adapters between PCL types and the PCL-free GPU module: clouds as point views (no copy),
-/// Eigen <-> row-major transforms, and ICP settings read off a configured pcl::IterativeClosestPoint.
-/// Header-only and never included by gpu/src, so the GPU library itself builds without PCL; include
-/// it only where PCL is available.
+/// \brief The GPU module's PCL face (pcl::gpu): thin adapters between PCL types and the PCL-free
+/// dw::gpu engine: clouds as point views (no copy), Eigen <-> row-major transforms, and ICP settings
+/// read off a configured pcl::IterativeClosestPoint. Header-only and never included by gpu/src, so the
+/// GPU library itself builds without PCL; include it only where PCL is available. It defines nothing
+/// PCL's own GPU module defines (pcl/gpu/containers), so one translation unit can include both.
 #pragma once
 
 #include <pcl/point_cloud.h>
@@ -17,6 +18,10 @@
 namespace pcl {
 namespace gpu {
 
+/// The pcl_gpu-style classes under the names PCL users look for; the engine is PCL-free (dw::gpu).
+using dw::gpu::DelaunayWalk;
+using dw::gpu::IterativeClosestPoint;
+
 /// \brief The xyz of a PCL cloud as a strided float view (the cloud must outlive the view).
 /// \param[in] cloud any point type with float x, y, z members laid out consecutively
 template <typename PointT>
@@ -27,8 +32,8 @@ dw::PointView toPointView(const pcl::PointCloud<PointT>& cloud) {
 
 /// \brief Row-major double transform from an Eigen 4x4 (PCL's Matrix4 of any scalar).
 template <typename Scalar>
-Matrix4d fromEigen(const Eigen::Matrix<Scalar, 4, 4>& m) {
-  Matrix4d out;
+dw::gpu::Matrix4d fromEigen(const Eigen::Matrix<Scalar, 4, 4>& m) {
+  dw::gpu::Matrix4d out;
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) out[4 * r + c] = double(m(r, c));
   return out;
@@ -36,7 +41,7 @@ Matrix4d fromEigen(const Eigen::Matrix<Scalar, 4, 4>& m) {
 
 /// \brief Eigen 4x4 (PCL's Registration::Matrix4) from a row-major double transform.
 template <typename Scalar = float>
-Eigen::Matrix<Scalar, 4, 4> toEigen(const Matrix4d& m) {
+Eigen::Matrix<Scalar, 4, 4> toEigen(const dw::gpu::Matrix4d& m) {
   Eigen::Matrix<Scalar, 4, 4> out;
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) out(r, c) = Scalar(m[4 * r + c]);
@@ -47,10 +52,10 @@ Eigen::Matrix<Scalar, 4, 4> toEigen(const Matrix4d& m) {
 /// the GPU loop runs with exactly the criteria the CPU one would.
 /// \param[in] icp a pcl::IterativeClosestPoint (or subclass, e.g. the Delaunay-walk ICP)
 template <typename PointSource, typename PointTarget, typename Scalar>
-IcpParameters parametersFrom(const pcl::IterativeClosestPoint<PointSource, PointTarget, Scalar>& icp) {
+dw::gpu::IcpParameters parametersFrom(const pcl::IterativeClosestPoint<PointSource, PointTarget, Scalar>& icp) {
   // PCL's getters are not const-qualified in every version: read through a non-const reference.
   auto& r = const_cast<pcl::IterativeClosestPoint<PointSource, PointTarget, Scalar>&>(icp);
-  IcpParameters p;
+  dw::gpu::IcpParameters p;
   p.max_iterations = r.getMaximumIterations();
   p.transformation_epsilon = r.getTransformationEpsilon();
   p.transformation_rotation_epsilon = r.getTransformationRotationEpsilon();
@@ -66,10 +71,10 @@ IcpParameters parametersFrom(const pcl::IterativeClosestPoint<PointSource, Point
 /// \param[in] guess initial transform (PCL's align(output, guess))
 /// \param[out] final_transformation the result as PCL returns it (getFinalTransformation())
 template <typename PointT, typename Scalar>
-IcpResult align(IterativeClosestPoint& icp, const pcl::PointCloud<PointT>& source,
+dw::gpu::IcpResult align(dw::gpu::IterativeClosestPoint& icp, const pcl::PointCloud<PointT>& source,
                 const Eigen::Matrix<Scalar, 4, 4>& guess, Eigen::Matrix<Scalar, 4, 4>& final_transformation) {
   icp.setInputSource(toPointView(source));
-  const IcpResult r = icp.align(fromEigen(guess));
+  const dw::gpu::IcpResult r = icp.align(fromEigen(guess));
   final_transformation = toEigen<Scalar>(r.transformation);
   return r;
 }

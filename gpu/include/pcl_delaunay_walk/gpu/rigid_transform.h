@@ -14,7 +14,7 @@
 #define DW_HOST_DEVICE
 #endif
 
-namespace pcl {
+namespace dw {
 namespace gpu {
 
 /// Eigen-decomposition of a symmetric 4x4 matrix by cyclic Jacobi rotations: on return a is (nearly)
@@ -89,4 +89,4 @@ DW_HOST_DEVICE inline void rotationFromCrossCovariance(const double s[3][3], dou
 }
 
 }  // namespace gpu
-}  // namespace pcl
+}  // namespace dw

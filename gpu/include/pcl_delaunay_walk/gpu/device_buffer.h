@@ -1,5 +1,6 @@
-/// \file device_array.h
-/// \brief pcl_gpu-style owning device buffer: plain cudaMalloc (never managed memory), move-only,
+/// \file device_buffer.h
+/// \brief dw::gpu::DeviceBuffer: owning device buffer in the manner of pcl_gpu's DeviceArray (a class of
+/// its own, so both can be included together): plain cudaMalloc (never managed memory), move-only,
 /// grows only when asked for more than it holds, so steady-state batch calls allocate nothing.
 #pragma once
 
@@ -11,26 +12,26 @@
 
 #include "pcl_delaunay_walk/gpu/cuda_check.h"
 
-namespace pcl {
+namespace dw {
 namespace gpu {
 
 template <typename T>
-class DeviceArray {
+class DeviceBuffer {
  public:
-  DeviceArray() = default;
-  explicit DeviceArray(std::size_t n) { create(n); }
-  ~DeviceArray() { release(); }
-  DeviceArray(const DeviceArray&) = delete;
-  DeviceArray& operator=(const DeviceArray&) = delete;
-  DeviceArray(DeviceArray&& o) noexcept { swap(o); }
-  DeviceArray& operator=(DeviceArray&& o) noexcept {
+  DeviceBuffer() = default;
+  explicit DeviceBuffer(std::size_t n) { create(n); }
+  ~DeviceBuffer() { release(); }
+  DeviceBuffer(const DeviceBuffer&) = delete;
+  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
+  DeviceBuffer(DeviceBuffer&& o) noexcept { swap(o); }
+  DeviceBuffer& operator=(DeviceBuffer&& o) noexcept {
     if (this != &o) {
       release();
       swap(o);
     }
     return *this;
   }
-  void swap(DeviceArray& o) noexcept {
+  void swap(DeviceBuffer& o) noexcept {
     std::swap(ptr_, o.ptr_);
     std::swap(size_, o.size_);
     std::swap(capacity_, o.capacity_);
@@ -59,11 +60,14 @@ class DeviceArray {
     if (n) checkCuda(cudaMemcpyAsync(ptr_, host, n * sizeof(T), cudaMemcpyHostToDevice, stream), "upload");
     if (!stream) checkCuda(cudaStreamSynchronize(nullptr), "upload");
   }
-  void upload(const std::vector<T>& host, cudaStream_t stream = nullptr) { upload(host.data(), host.size(), stream); }
+  void upload(const std::vector<T>& host, cudaStream_t stream = nullptr) {
+    upload(host.data(), host.size(), stream);
+  }
 
   /// Copies the first n elements out (waits for `stream`).
   void download(T* host, std::size_t n, cudaStream_t stream = nullptr) const {
-    if (n > size_) throw dw::Error("pcl::gpu::DeviceArray::download: asked for more elements than the array holds");
+    if (n > size_)
+      throw dw::Error("dw::gpu::DeviceBuffer::download: asked for more elements than the buffer holds");
     if (n) checkCuda(cudaMemcpyAsync(host, ptr_, n * sizeof(T), cudaMemcpyDeviceToHost, stream), "download");
     checkCuda(cudaStreamSynchronize(stream), "download");
   }
@@ -84,4 +88,4 @@ class DeviceArray {
 };
 
 }  // namespace gpu
-}  // namespace pcl
+}  // namespace dw
