@@ -32,8 +32,12 @@ std::string fixedString(const unsigned char* p, std::size_t n) {
 
 }  // namespace
 
-LasHeader parseHeader(const unsigned char* b, std::size_t available, std::uint64_t file_size,
-                      const std::string& name) {
+namespace {
+
+/// parseHeader's checks; a LAZ header (compressed marker) is accepted only with `allow_laz`, and its
+/// point count is then checked against the chunk table instead of the file size.
+LasHeader parseAnyHeader(const unsigned char* b, std::size_t available, std::uint64_t file_size,
+                         const std::string& name, bool allow_laz) {
   if (available < 227)
     throw LasError(name + ": file is too short for a LAS header (" + std::to_string(file_size) + " bytes)");
   if (std::memcmp(b, "LASF", 4) != 0) throw LasError(name + ": not a LAS file (signature is not 'LASF')");
@@ -60,6 +64,9 @@ LasHeader parseHeader(const unsigned char* b, std::size_t available, std::uint64
   // LASzip marks compressed data by setting the top bits of the point format; the record length and
   // count stay those of the uncompressed records, checked against the chunk table by the reader.
   const bool compressed = (raw_format & 0xC0) != 0;
+  if (compressed && !allow_laz)
+    throw LasError(name + ": this is a LAZ (LASzip-compressed) header; parseHeader reads uncompressed "
+                          "headers, LasReader and readLasFile read LAZ files");
   h.point_format = raw_format & 0x3F;
   const std::size_t min_header = h.version_minor >= 4 ? 375 : (h.version_minor == 3 ? 235 : 227);
   if (h.header_size < min_header)
@@ -101,6 +108,13 @@ LasHeader parseHeader(const unsigned char* b, std::size_t available, std::uint64
   return h;
 }
 
+}  // namespace
+
+LasHeader parseHeader(const unsigned char* b, std::size_t available, std::uint64_t file_size,
+                      const std::string& name) {
+  return parseAnyHeader(b, available, file_size, name, false);
+}
+
 LasReader::LasReader(const std::string& path) : path_(path) {
   file_ = std::fopen(path.c_str(), "rb");
   if (!file_) throw LasError(path + ": cannot open for reading");
@@ -110,7 +124,7 @@ LasReader::LasReader(const std::string& path) : path_(path) {
   unsigned char head[375] = {0};
   const std::size_t got = std::fread(head, 1, sizeof head, file_);
   try {
-    header_ = parseHeader(head, got, size < 0 ? 0 : std::uint64_t(size), path);
+    header_ = parseAnyHeader(head, got, size < 0 ? 0 : std::uint64_t(size), path, true);
     if (head[104] & 0xC0) {
       laz_ = std::make_unique<LazChunks>(fileno(file_), path, header_, size < 0 ? 0 : std::uint64_t(size));
       laz_decoder_ = laz_->makeDecoder();
@@ -209,7 +223,7 @@ LasCloud readLazFile(const std::string& path, const LasReadOptions& options) {
   const ssize_t read_bytes = ::pread(fileno(f), head, sizeof head, 0);
   const std::size_t got = read_bytes > 0 ? std::size_t(read_bytes) : 0;
   LasCloud cloud;
-  cloud.header = parseHeader(head, got, std::uint64_t(size), path);
+  cloud.header = parseAnyHeader(head, got, std::uint64_t(size), path, true);
   const LasHeader& h = cloud.header;
   const LazChunks chunks(fileno(f), path, h, std::uint64_t(size));
   if (options.classification < 0) {

@@ -52,7 +52,8 @@ class LasReader {
 };
 
 /// Parses and validates a header from the first bytes of a file of `file_size` bytes (exposed for
-/// tests and tools). `name` is used in messages.
+/// tests and tools). `name` is used in messages. A LAZ header is refused here (its point count cannot
+/// be checked against the file size); LasReader reads LAZ files.
 LasHeader parseHeader(const unsigned char* bytes, std::size_t available, std::uint64_t file_size,
                       const std::string& name);
 
