@@ -2,9 +2,15 @@
 /// \brief LAS header validation and chunked record reading.
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <mutex>
+
+#include "core/las/laz_reader.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
 
 namespace dw {
 namespace las {
@@ -17,19 +23,6 @@ T get(const unsigned char* p) {
   return v;
 }
 
-bool endsWithLaz(const std::string& path) {
-  if (path.size() < 4) return false;
-  std::string ext = path.substr(path.size() - 4);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return ext == ".laz";
-}
-
-std::string lazMessage(const std::string& name) {
-  return name +
-         ": this is a LAZ (LASzip-compressed) file; the module reads uncompressed LAS only. "
-         "Decompress it first, e.g. `laszip -i in.laz -o out.las` or `pdal translate in.laz out.las`";
-}
-
 std::string fixedString(const unsigned char* p, std::size_t n) {
   std::string s(reinterpret_cast<const char*>(p), n);
   const auto z = s.find('\0');
@@ -39,8 +32,12 @@ std::string fixedString(const unsigned char* p, std::size_t n) {
 
 }  // namespace
 
-LasHeader parseHeader(const unsigned char* b, std::size_t available, std::uint64_t file_size,
-                      const std::string& name) {
+namespace {
+
+/// parseHeader's checks; a LAZ header (compressed marker) is accepted only with `allow_laz`, and its
+/// point count is then checked against the chunk table instead of the file size.
+LasHeader parseAnyHeader(const unsigned char* b, std::size_t available, std::uint64_t file_size,
+                         const std::string& name, bool allow_laz) {
   if (available < 227)
     throw LasError(name + ": file is too short for a LAS header (" + std::to_string(file_size) + " bytes)");
   if (std::memcmp(b, "LASF", 4) != 0) throw LasError(name + ": not a LAS file (signature is not 'LASF')");
@@ -64,9 +61,13 @@ LasHeader parseHeader(const unsigned char* b, std::size_t available, std::uint64
     h.max[k] = get<double>(b + 179 + 16 * k);
     h.min[k] = get<double>(b + 187 + 16 * k);
   }
-  // LASzip marks compressed data by setting the top bits of the point format.
-  if (raw_format & 0xC0) throw LasError(lazMessage(name));
-  h.point_format = raw_format;
+  // LASzip marks compressed data by setting the top bits of the point format; the record length and
+  // count stay those of the uncompressed records, checked against the chunk table by the reader.
+  const bool compressed = (raw_format & 0xC0) != 0;
+  if (compressed && !allow_laz)
+    throw LasError(name + ": this is a LAZ (LASzip-compressed) header; parseHeader reads uncompressed "
+                          "headers, LasReader and readLasFile read LAZ files");
+  h.point_format = raw_format & 0x3F;
   const std::size_t min_header = h.version_minor >= 4 ? 375 : (h.version_minor == 3 ? 235 : 227);
   if (h.header_size < min_header)
     throw LasError(name + ": header size " + std::to_string(h.header_size) + " is smaller than LAS 1." +
@@ -99,12 +100,19 @@ LasHeader parseHeader(const unsigned char* b, std::size_t available, std::uint64
   // Compare counts, not byte sizes: count * record_length can overflow 64 bits on a lying header.
   const std::uint64_t room =
       file_size > h.offset_to_points ? (file_size - h.offset_to_points) / h.record_length : 0;
-  if (h.point_count > room)
+  if (!compressed && h.point_count > room)
     throw LasError(name + ": file is truncated: the header announces " + std::to_string(h.point_count) +
                    " points of " + std::to_string(h.record_length) + " bytes after offset " +
                    std::to_string(h.offset_to_points) + ", but the file has " + std::to_string(file_size) +
                    " bytes (room for " + std::to_string(room) + " points)");
   return h;
+}
+
+}  // namespace
+
+LasHeader parseHeader(const unsigned char* b, std::size_t available, std::uint64_t file_size,
+                      const std::string& name) {
+  return parseAnyHeader(b, available, file_size, name, false);
 }
 
 LasReader::LasReader(const std::string& path) : path_(path) {
@@ -116,9 +124,11 @@ LasReader::LasReader(const std::string& path) : path_(path) {
   unsigned char head[375] = {0};
   const std::size_t got = std::fread(head, 1, sizeof head, file_);
   try {
-    if (endsWithLaz(path) && got >= 4 && std::memcmp(head, "LASF", 4) == 0 && (head[104] & 0xC0))
-      throw LasError(lazMessage(path));
-    header_ = parseHeader(head, got, size < 0 ? 0 : std::uint64_t(size), path);
+    header_ = parseAnyHeader(head, got, size < 0 ? 0 : std::uint64_t(size), path, true);
+    if (head[104] & 0xC0) {
+      laz_ = std::make_unique<LazChunks>(fileno(file_), path, header_, size < 0 ? 0 : std::uint64_t(size));
+      laz_decoder_ = laz_->makeDecoder();
+    }
   } catch (...) {
     std::fclose(file_);
     file_ = nullptr;
@@ -133,6 +143,10 @@ LasReader::~LasReader() {
 
 void LasReader::seek(std::uint64_t index) {
   if (index > header_.point_count) throw LasError(path_ + ": seek past the last point");
+  if (laz_) {
+    next_ = index;
+    return;
+  }
   const std::uint64_t pos = header_.offset_to_points + index * header_.record_length;
   if (fseeko(file_, static_cast<off_t>(pos), SEEK_SET) != 0) throw LasError(path_ + ": seek failed");
   next_ = index;
@@ -142,6 +156,7 @@ std::size_t LasReader::read(std::vector<LasRecord>& out, std::size_t max_records
   const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(max_records, remaining()));
   out.resize(n);
   if (n == 0) return 0;
+  if (laz_) return readLaz(out, n);
   buffer_.resize(n * header_.record_length);
   const std::size_t got = std::fread(buffer_.data(), 1, buffer_.size(), file_);
   if (got != buffer_.size())
@@ -154,7 +169,104 @@ std::size_t LasReader::read(std::vector<LasRecord>& out, std::size_t max_records
   return n;
 }
 
+std::size_t LasReader::readLaz(std::vector<LasRecord>& out, std::size_t n) {
+  std::size_t done = 0;
+  while (done < n) {
+    const std::size_t c = laz_->chunkOf(next_);
+    if (c != laz_chunk_) {
+      laz_chunk_ = ~std::size_t(0);  // a failed decode leaves no half chunk behind
+      laz_->decode(c, *laz_decoder_, laz_compressed_, buffer_);
+      laz_chunk_ = c;
+    }
+    const std::uint64_t first = laz_->firstPoint(c);
+    const std::size_t take = std::size_t(std::min<std::uint64_t>(n - done, first + laz_->points(c) - next_));
+    for (std::size_t i = 0; i < take; ++i)
+      decodeRecord(buffer_.data() + (next_ - first + i) * header_.record_length, header_.point_format, out[done + i]);
+    done += take;
+    next_ += take;
+  }
+  return n;
+}
+
+namespace {
+
+/// Appends the records of one decoded chunk that pass the class filter.
+void appendRecords(const unsigned char* records, std::size_t count, const LasHeader& h,
+                   const LasReadOptions& options, LasCloud& cloud) {
+  LasRecord r;
+  for (std::size_t i = 0; i < count; ++i) {
+    decodeRecord(records + i * h.record_length, h.point_format, r);
+    if (options.classification >= 0 && r.classification != options.classification) continue;
+    cloud.X.push_back(r.X);
+    cloud.Y.push_back(r.Y);
+    cloud.Z.push_back(r.Z);
+    if (options.keep_attributes) {
+      cloud.classification.push_back(r.classification);
+      cloud.intensity.push_back(r.intensity);
+      cloud.return_number.push_back(r.return_number);
+    }
+  }
+}
+
+/// LAZ: batches of a few chunks per thread are decoded in parallel, then appended in file order, so
+/// the cloud is the same for any thread count and memory holds one batch of records.
+LasCloud readLazFile(const std::string& path, const LasReadOptions& options) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) throw LasError(path + ": cannot open for reading");
+  struct Closer {
+    std::FILE* f;
+    ~Closer() { std::fclose(f); }
+  } closer{f};
+  std::fseek(f, 0, SEEK_END);
+  const long size = std::ftell(f);
+  unsigned char head[375] = {0};
+  const ssize_t read_bytes = ::pread(fileno(f), head, sizeof head, 0);
+  const std::size_t got = read_bytes > 0 ? std::size_t(read_bytes) : 0;
+  LasCloud cloud;
+  cloud.header = parseAnyHeader(head, got, std::uint64_t(size), path, true);
+  const LasHeader& h = cloud.header;
+  const LazChunks chunks(fileno(f), path, h, std::uint64_t(size));
+  if (options.classification < 0) {
+    cloud.X.reserve(h.point_count);
+    cloud.Y.reserve(h.point_count);
+    cloud.Z.reserve(h.point_count);
+  }
+  const unsigned threads = resolveThreads(options.threads);
+  const std::size_t batch = std::size_t(threads) * 2;
+  struct Slot {
+    std::unique_ptr<laz::ChunkDecoder> decoder;
+    std::vector<std::uint8_t> compressed, records;
+  };
+  std::vector<Slot> slots(std::min(batch, chunks.size()));
+  for (auto& s : slots) s.decoder = chunks.makeDecoder();
+  for (std::size_t begin = 0; begin < chunks.size(); begin += batch) {
+    const std::size_t n = std::min(batch, chunks.size() - begin);
+    parallelForDynamic(n, threads, [&](std::size_t i) {
+      Slot& s = slots[i];
+      chunks.decode(begin + i, *s.decoder, s.compressed, s.records);
+    });
+    for (std::size_t i = 0; i < n; ++i)
+      appendRecords(slots[i].records.data(), chunks.points(begin + i), h, options, cloud);
+    if (options.progress)
+      options.progress(double(begin + n) / double(chunks.size()), options.progress_user);
+  }
+  return cloud;
+}
+
+bool isLaz(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return false;
+  unsigned char head[105] = {0};
+  const bool laz = std::fread(head, 1, sizeof head, f) == sizeof head && std::memcmp(head, "LASF", 4) == 0 &&
+                   (head[104] & 0xC0);
+  std::fclose(f);
+  return laz;
+}
+
+}  // namespace
+
 LasCloud readLasFile(const std::string& path, const LasReadOptions& options) {
+  if (isLaz(path)) return readLazFile(path, options);
   LasReader reader(path);
   LasCloud cloud;
   cloud.header = reader.header();

@@ -236,9 +236,10 @@ TEST(LasReader, RealAirborneTiles) {
   EXPECT_EQ(big.header().record_length, 41);
   EXPECT_EQ(big.header().point_count, 697721u);
 
-  const std::string msg = errorOf(shared("airborne/las_with_several_extra_byte_bloc.laz"));
-  EXPECT_NE(msg.find("LAZ"), std::string::npos) << msg;
-  EXPECT_NE(msg.find("Decompress"), std::string::npos) << msg;
+  // The LAZ twin opens with the same header (test_laz.cpp compares its records).
+  LasReader laz(shared("airborne/las_with_several_extra_byte_bloc.laz"));
+  EXPECT_EQ(laz.header().point_format, 8);
+  EXPECT_EQ(laz.header().point_count, 697721u);
 }
 
 }  // namespace

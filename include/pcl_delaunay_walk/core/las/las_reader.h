@@ -1,7 +1,9 @@
 /// \file las_reader.h
-/// \brief Streaming reader of uncompressed LAS 1.0-1.4 files, point formats 0-10 (extra bytes skipped).
-/// Every inconsistency (bad signature, version, sizes, truncation) throws dw::las::LasError with the
-/// file name and what was wrong; a LAZ file gets a message that it must be decompressed first.
+/// \brief Streaming reader of LAS 1.0-1.4 files, point formats 0-10 (extra bytes skipped), and of
+/// LASzip-compressed LAZ files of formats 0-3 and 6-8 (decoded chunk by chunk, so memory stays a
+/// chunk's records however large the file). Every inconsistency (bad signature, version, sizes,
+/// truncation, a corrupt chunk) throws dw::las::LasError with the file name, the chunk and what was
+/// wrong.
 #pragma once
 
 #include <cstdio>
@@ -14,9 +16,14 @@
 namespace dw {
 namespace las {
 
+class LazChunks;
+namespace laz {
+class ChunkDecoder;
+}
+
 class LasReader {
  public:
-  /// Opens `path` and validates its header against the file size.
+  /// Opens `path` and validates its header against the file size (LAZ: against the chunk table).
   explicit LasReader(const std::string& path);
   ~LasReader();
   LasReader(const LasReader&) = delete;
@@ -36,10 +43,17 @@ class LasReader {
   LasHeader header_;
   std::uint64_t next_ = 0;
   std::vector<unsigned char> buffer_;
+  // LAZ only: the chunks, a decoder, and the decoded records of chunk `laz_chunk_`.
+  std::unique_ptr<LazChunks> laz_;
+  std::unique_ptr<laz::ChunkDecoder> laz_decoder_;
+  std::vector<unsigned char> laz_compressed_;
+  std::size_t laz_chunk_ = ~std::size_t(0);
+  std::size_t readLaz(std::vector<LasRecord>& out, std::size_t n);
 };
 
 /// Parses and validates a header from the first bytes of a file of `file_size` bytes (exposed for
-/// tests and tools). `name` is used in messages.
+/// tests and tools). `name` is used in messages. A LAZ header is refused here (its point count cannot
+/// be checked against the file size); LasReader reads LAZ files.
 LasHeader parseHeader(const unsigned char* bytes, std::size_t available, std::uint64_t file_size,
                       const std::string& name);
 
@@ -59,12 +73,15 @@ struct LasCloud {
 
 struct LasReadOptions {
   int classification = -1;       ///< keep only this class (e.g. 2 = ground); -1: all
+  unsigned threads = 0;          ///< LAZ: chunks decoded at once (0: all cores); results do not depend on it
   bool keep_attributes = false;  ///< also fill classification, intensity, return_number
   /// Optional progress in [0, 1].
   void (*progress)(double fraction, void* user) = nullptr;
   void* progress_user = nullptr;
 };
 
+/// Reads a LAS or LAZ file; LAZ chunks are decoded on options.threads threads, a few chunks per
+/// thread at a time.
 LasCloud readLasFile(const std::string& path, const LasReadOptions& options = {});
 
 }  // namespace las

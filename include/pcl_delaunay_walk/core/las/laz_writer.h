@@ -1,0 +1,57 @@
+/// \file laz_writer.h
+/// \brief Writer of LASzip-compressed LAS (LAZ) files, point formats 0-3 (pointwise chunks, LASzip v2
+/// items) and 6-8 (layered chunks, v3 items), with optional zero-filled extra bytes: the same
+/// interface as LasWriter. Records are buffered one chunk at a time, so memory stays a chunk's.
+/// laz-perf (LASzip compiled to WASM) decodes what it writes (test/core/las/laz_perf_check.js).
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "pcl_delaunay_walk/core/las/las_format.h"
+
+namespace dw {
+namespace las {
+
+namespace laz {
+class ChunkEncoder;
+}
+
+class LazWriter {
+ public:
+  /// Creates `path`. `header` gives version, point format, scale and offset; counts and bounds are
+  /// filled in by close(). `chunk_size` points per chunk (LASzip's default 50000).
+  LazWriter(const std::string& path, const LasHeader& header, unsigned extra_bytes = 0,
+            std::uint32_t chunk_size = 50000);
+  ~LazWriter();
+  LazWriter(const LazWriter&) = delete;
+  LazWriter& operator=(const LazWriter&) = delete;
+
+  void write(const LasRecord& r);
+  /// Writes the last chunk, the chunk table and the final header; throws LasError on I/O failure.
+  void close();
+
+ private:
+  void flushChunk();
+  void writeHeader();
+  void put(const void* p, std::size_t n);
+  std::string path_;
+  std::FILE* file_ = nullptr;
+  LasHeader h_;
+  unsigned extra_;
+  std::uint32_t chunk_size_;
+  std::vector<std::uint8_t> vlr_;
+  std::unique_ptr<laz::ChunkEncoder> encoder_;
+  std::vector<std::uint8_t> records_, chunk_;
+  std::size_t buffered_ = 0;
+  std::vector<std::uint64_t> chunk_bytes_, chunk_counts_;
+  std::uint64_t by_return_[15] = {0};
+  bool any_ = false;
+  std::int32_t lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};
+};
+
+}  // namespace las
+}  // namespace dw
