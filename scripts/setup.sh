@@ -23,6 +23,15 @@ if [ ${#missing[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
 
+# The LAZ codec's independent check (ctest core.las.laz_perf_check) decodes with npm's laz-perf, LASzip
+# compiled to WASM; a test-only tool, kept in the git-ignored .deps/ and never linked.
+if command -v npm >/dev/null 2>&1 && [ ! -d .deps/lazperf/node_modules/laz-perf ]; then
+  echo "== installing laz-perf 0.0.7 (npm) into .deps/lazperf"
+  mkdir -p .deps/lazperf
+  (cd .deps/lazperf && { [ -f package.json ] || npm init -y >/dev/null; } && npm install --no-audit --no-fund laz-perf@0.0.7) ||
+    echo "!! laz-perf not installed: core.las.laz_perf_check will be skipped"
+fi
+
 BUILD_DIR=${BUILD_DIR:-build}
 export CCACHE_BASEDIR="$PWD"
 export CCACHE_DIR=${CCACHE_DIR:-$HOME/.cache/ccache}
