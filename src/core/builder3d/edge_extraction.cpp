@@ -65,6 +65,27 @@ struct RangeLists {
   std::size_t list(unsigned w, std::size_t r) const { return std::size_t(w) * num_ranges + r; }
 };
 
+// 1. Ranges: `budget` occurrences each, estimated as 3 per tetrahedron slot spread over all points
+// (a range holding more only makes its buffer bigger). At least one range per thread. Each thread
+// holds one range's buffer, so the budget shrinks with the thread count (a floor of 2^18 gave the
+// dragon's 16 threads 38 bytes per point of buffers, and the extraction a peak above the insertion's;
+// 4 occurrences per point per thread still put the dragon's 4-16 thread extraction 6-10 B/pt above
+// it, so 2, with no change in time measured on 1-2 threads). At most 2^19 (a range's bucket in 2 MiB,
+// nearer the core's caches): on one thread, 1M uniform points took 0.385-0.393 s to extract with
+// ranges of 2M occurrences and 0.323-0.335 s with 0.3M-0.5M; the dragon (437k) 0.161-0.165 s either way.
+void planRanges(RangeLists& out, std::size_t nt, std::size_t n, unsigned num_threads) {
+  const std::size_t first = out.first, last = out.last;
+  const std::size_t span = last - first;
+  const std::size_t budget = std::min<std::size_t>(
+      std::size_t(1) << 19, std::max<std::size_t>(std::size_t(1) << 15, 2 * span / num_threads));
+  const std::size_t per_vertex = std::max<std::size_t>(1, 3 * nt / std::max<std::size_t>(n, 1));
+  const std::size_t wanted =
+      std::min(span, std::max<std::size_t>(num_threads, (span * per_vertex + budget - 1) / budget));
+  while ((std::size_t(1) << out.width_bits) * wanted < span) ++out.width_bits;
+  out.num_ranges = ((span - 1) >> out.width_bits) + 1;
+  out.workers = workerCount(nt, num_threads, 1 << 16);
+}
+
 // The live tetrahedra's sorted vertex quadruples listed by the range of ids owning their edges.
 // The lists hold everything the edges need: `give_back`, when given, is tet_v itself, which the
 // caller frees next, and its pages go back to the system as they are listed. `donor`, when given, is
@@ -83,23 +104,7 @@ RangeLists listByRange(const SlotArray<index_t>& tet_v, std::size_t n, unsigned 
   out.first = first;
   out.last = last;
 
-  // 1. Ranges: `budget` occurrences each, estimated as 3 per tetrahedron slot spread over all points
-  // (a range holding more only makes its buffer bigger). At least one range per thread. Each thread
-  // holds one range's buffer, so the budget shrinks with the thread count (a floor of 2^18 gave the
-  // dragon's 16 threads 38 bytes per point of buffers, and the extraction a peak above the insertion's;
-  // 4 occurrences per point per thread still put the dragon's 4-16 thread extraction 6-10 B/pt above
-  // it, so 2 now, with no change in time measured on 1-2 threads). At most 2^19 (a range's bucket in 2 MiB,
-  // nearer the core's caches): on one thread, 1M uniform points took 0.385-0.393 s to extract with
-  // ranges of 2M occurrences and 0.323-0.335 s with 0.3M-0.5M; the dragon (437k) 0.161-0.165 s either way.
-  const std::size_t span = last - first;
-  const std::size_t budget = std::min<std::size_t>(
-      std::size_t(1) << 19, std::max<std::size_t>(std::size_t(1) << 15, 2 * span / num_threads));
-  const std::size_t per_vertex = std::max<std::size_t>(1, 3 * nt / std::max<std::size_t>(n, 1));
-  const std::size_t wanted =
-      std::min(span, std::max<std::size_t>(num_threads, (span * per_vertex + budget - 1) / budget));
-  while ((std::size_t(1) << out.width_bits) * wanted < span) ++out.width_bits;
-  out.num_ranges = ((span - 1) >> out.width_bits) + 1;
-  out.workers = workerCount(nt, num_threads, 1 << 16);
+  planRanges(out, nt, n, num_threads);
   const std::size_t num_ranges = out.num_ranges;
 
   // 2. Worker w takes the w-th slice of the tetrahedra: per range, it counts the tetrahedra with an

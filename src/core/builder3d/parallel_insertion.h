@@ -42,7 +42,7 @@ struct Triangulation3D::CellSplit {
   // Pass 0 cuts along the axes, later passes along orthogonal triples with one body diagonal each.
   // What two passes in a row leave lies along the line where their first cuts cross; the next pass's
   // first direction is independent of theirs, so its cut crosses that line instead of containing it
-  // (in the former order, (1,0,0), (1,1,1) then (-1,1,1): two threads' third pass inserted 26 % of the
+  // (in the order (1,0,0), (1,1,1), (-1,1,1): two threads' third pass inserted 26 % of the
   // points left, in this order 93 %).
   static constexpr double kDirections[5][3][3] = {
       {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}},    {{1, 1, 1}, {1, -1, 0}, {1, 1, -2}},

@@ -516,7 +516,7 @@ void Triangulation3D::checkNotDuplicate(index_t v, index_t t) const {
 // tetrahedra found by the last one, queueing every neighbour not seen before (marked queued) and
 // listing every face whose neighbour is not in the cavity as a candidate boundary face; then it
 // tests the queued neighbours, one after another. Whether a neighbour was seen before is a coin flip
-// (~19 of ~63 visits per point): tested at each visit, as before, that branch was mispredicted ~22
+// (~19 of ~63 visits per point): tested at each visit, that branch was mispredicted ~22
 // times per inserted point, more than all the insertion's other branches together. Queued, it is a
 // masked store; the levels' loop exits mispredict instead, a few times per cavity, and a candidate
 // is a boundary face when its neighbour ended outside (filtered after the search). Cachegrind, 100k
