@@ -5,6 +5,7 @@
 /// The pieces, as in CGAL (TDS / traits / triangulation) and geogram (Delaunay3d, ParallelDelaunay3d):
 /// - tetra_mesh.h: the mesh (flat arrays of vertex ids and neighbour codes, slots, free list);
 /// - triangulation_3d.cpp: insertion, read as locate -> find the cavity -> stellate it;
+/// - triangulation_build.cpp: build(): the first tetrahedron, then the vertices batch by batch;
 /// - parallel_insertion.cpp: insertParallel's passes over k-d cells of space, with hand-on;
 /// - edge_extraction.cpp: the Delaunay edges, each listed once (the ring-ascent argument there);
 /// - vertex_removal.cpp: remove().
