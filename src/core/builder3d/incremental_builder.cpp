@@ -1,5 +1,5 @@
-// dw::incrementalDelaunayEdges: the project's 3D Delaunay graph builder (issue 8). BRIO order, the
-// Bowyer-Watson kernel, then the edges of the triangulation (extracted on num_threads threads); the
+// dw::incrementalDelaunayEdges: the project's 3D Delaunay graph builder. BRIO order, the
+// Bowyer-Watson triangulation, then the edges of the triangulation (extracted on num_threads threads); the
 // adjacency is freed before the edges are made so that the peak holds one copy of each.
 //
 // The block-parallel builder (block_parallel_builder.h) is exact for any number of blocks but is not

@@ -1,12 +1,17 @@
 /// \file triangulation_3d.h
-/// \brief Incremental 3D Delaunay triangulation (Bowyer-Watson) on flat structure-of-arrays storage,
-/// made for one purpose: producing the walk graph's edges (DESIGN.md §2, issue 8).
+/// \brief Incremental 3D Delaunay triangulation (Bowyer-Watson) over a TetraMesh, made for one
+/// purpose: producing the walk graph's edges (docs/architecture.md).
 ///
-/// - Tetrahedra live in two flat arrays: 4 vertex ids and 4 neighbour codes (tet * 4 + face) per
-///   tetrahedron; face i is the face opposite vertex i. Freed tetrahedra are recycled.
-/// - The convex hull is closed by an infinite vertex (kInfinite): each hull facet is the finite face of
-///   one infinite tetrahedron. Unlike a bounding super-tetrahedron this changes no Delaunay edge near
-///   the hull, so every hull edge of the real points is present and no artificial edge exists.
+/// The pieces, as in CGAL (TDS / traits / triangulation) and geogram (Delaunay3d, ParallelDelaunay3d):
+/// - tetra_mesh.h: the mesh (flat arrays of vertex ids and neighbour codes, slots, free list);
+/// - triangulation_3d.cpp: insertion, read as locate -> find the cavity -> stellate it;
+/// - triangulation_build.cpp: build(): the first tetrahedron, then the vertices batch by batch;
+/// - parallel_insertion.cpp: insertParallel's passes over k-d cells of space, with hand-on;
+/// - edge_extraction.cpp: the Delaunay edges, each listed once (the ring-ascent argument there);
+/// - vertex_removal.cpp: remove().
+/// The convex hull is closed by an infinite vertex (kInfinite): each hull facet is the finite face of
+/// one infinite tetrahedron. Unlike a bounding super-tetrahedron this changes no Delaunay edge near
+/// the hull, so every hull edge of the real points is present and no artificial edge exists.
 /// - Geometry comes only from dw::predicates (orient3d, insphere with simulation of simplicity keyed
 ///   on the vertex ids), so exactly cospherical or coplanar input gives a valid triangulation of a
 ///   consistently perturbed point set and never a hang.
@@ -20,8 +25,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/builder3d/tetra_mesh.h"
 #include "pcl_delaunay_walk/core/graph/types.h"
-#include "pcl_delaunay_walk/core/util/uninitialised_allocator.h"
 
 namespace dw {
 namespace predicates {
@@ -29,15 +34,10 @@ struct BroadcastPoint;
 }
 namespace builder3d {
 
-/// The kernel's per-tetrahedron arrays: resize(n) leaves new slots unwritten (a parallel pass writes
-/// them as its threads take them).
-template <class T>
-using SlotArray = std::vector<T, UninitialisedAllocator<T>>;
-
 class Triangulation3D {
  public:
-  static constexpr index_t kInfinite = 0xFFFFFFFFu;  ///< the vertex at infinity
-  static constexpr index_t kDead = 0xFFFFFFFEu;      ///< first vertex slot of a recycled tetrahedron
+  static constexpr index_t kInfinite = TetraMesh::kInfinite;  ///< the vertex at infinity
+  static constexpr index_t kDead = TetraMesh::kDead;  ///< first vertex slot of a recycled tetrahedron
   /// Keeps tet * 4 + face in 32 bits (about 6.7 tetrahedra per vertex on volumetric input).
   static constexpr std::size_t kMaxVertices = 150000000;
 
@@ -85,23 +85,23 @@ class Triangulation3D {
   void setMinPointsPerThread(std::size_t n) { min_points_per_thread_ = n; }
 
   /// Whether build() has produced a tetrahedralisation.
-  bool built() const { return !tet_v_.empty(); }
+  bool built() const { return !mesh_.empty(); }
 
   std::size_t numVertices() const { return num_inserted_; }
-  std::size_t numLiveTetrahedra() const { return tet_v_.size() / 4 - free_.size(); }
+  std::size_t numLiveTetrahedra() const { return mesh_.numLive(); }
 
   using EdgeChunks = std::vector<std::vector<std::pair<index_t, index_t>>>;
 
   /// Every Delaunay edge between finite vertices, u < v, each once, in chunks by consecutive ranges of
   /// u (ascending; each chunk sized exactly), made on `num_threads` threads, so the caller can
-  /// concatenate them after freeing the kernel.
+  /// concatenate them after freeing the triangulation.
   EdgeChunks edgeChunks(unsigned num_threads) const;
 
   /// edgeChunks(), but frees the adjacency first and the tetrahedra once they are listed: the peak
   /// memory then holds the vertex quadruples and their lists, then the lists and the edges, never the
   /// whole structure plus the edges. The edges come as one chunk (each range written straight to its
   /// place in it, on any number of threads), so joinChunks() hands it over without a copy. Leaves the
-  /// kernel empty (built() is false).
+  /// triangulation empty (built() is false).
   EdgeChunks releaseIntoEdgeChunks(unsigned num_threads);
 
   /// The chunks' edges in one list, in order: a single chunk (releaseIntoEdgeChunks' on any thread
@@ -114,25 +114,27 @@ class Triangulation3D {
   std::vector<std::pair<index_t, index_t>> edgesFrom(std::size_t first, std::size_t last) const;
 
   /// Vertices of the convex hull's triangulated boundary (those of the infinite tetrahedra), sorted.
-  std::vector<index_t> hullVertices() const;
+  std::vector<index_t> hullVertices() const { return mesh_.hullVertices(); }
 
   /// Raw access for the parallel builder's certification: slot count (live or recycled) and the four
   /// vertices of a slot (first entry kDead for a recycled one, kInfinite marks the infinite vertex).
-  std::size_t tetSlots() const { return tet_v_.size() / 4; }
+  std::size_t tetSlots() const { return mesh_.slots(); }
 
   /// Records, per tetrahedron slot, the insertion count at which it was (re)created, so that a caller
   /// can revisit only what changed since a moment (costs 4 bytes per tetrahedron). Call before build().
-  void trackBirths(bool on) { track_births_ = on; }
+  void trackBirths(bool on) { mesh_.track_births = on; }
   /// Insertions so far (the clock of birth()).
   std::uint32_t clock() const { return static_cast<std::uint32_t>(num_inserted_); }
   /// Birth of slot t (only with trackBirths(true)).
-  std::uint32_t birth(std::size_t t) const { return birth_[t]; }
-  const index_t* tetVertices(std::size_t t) const { return &tet_v_[4 * t]; }
+  std::uint32_t birth(std::size_t t) const { return mesh_.birth[t]; }
+  const index_t* tetVertices(std::size_t t) const { return mesh_.vertices(t); }
+  /// The mesh itself (read-only).
+  const TetraMesh& mesh() const { return mesh_; }
 
-  // ---- Vertex removal (issue 8, sliding-window maps; defined in src/core/builder3d/vertex_removal.cpp) ----
+  // ---- Vertex removal (sliding-window maps; vertex_removal.cpp) ----
   /// Removes vertex v: its star is re-triangulated by the Delaunay triangulation of its link under the
   /// same perturbation, so the result equals a fresh build of the remaining vertices (with the same ids).
-  /// Throws dw::Error, leaving the structure unchanged, when the kernel is not built, v is out of range
+  /// Throws dw::Error, leaving the structure unchanged, when the triangulation is not built, v is out of range
   /// or not present, or the remaining vertices would not span 3D (fewer than 4, or all coplanar).
   /// numVertices() drops by one; clock() (birth tracking) counts vertices present, so it is not
   /// monotone across removals.
@@ -140,18 +142,12 @@ class Triangulation3D {
   /// Vertices removed since construction.
   std::size_t numRemoved() const { return num_removed_; }
 
- private:
-  std::size_t num_removed_ = 0;
-
- public:
-  // ---- end of vertex removal ----
-
-  /// Checks the whole structure (adjacency symmetry, orientation of every tetrahedron, the local
-  /// Delaunay property of every interior face under the same perturbation, the Euler relation).
+  /// Checks the whole structure (TetraMesh::validate's adjacency and counts, then the orientation of
+  /// every tetrahedron and the local Delaunay property of every face under the same perturbation).
   /// Throws dw::Error naming the first violation. O(tetrahedra); for tests.
   void validate() const;
 
-  /// Bytes held by the kernel's arrays (capacity), for memory accounting.
+  /// Bytes held by the arrays (capacity), for memory accounting.
   std::size_t memoryBytes() const;
 
   /// Statistics of the last build (for benchmarks and docs).
@@ -174,6 +170,9 @@ class Triangulation3D {
   const Stats& stats() const { return stats_; }
 
  private:
+  using Mark = TetraMesh::Mark;
+  static constexpr std::uint32_t kNoTet = TetraMesh::kNoTet;
+
   struct BoundaryFace {
     index_t v[4];         // the new tetrahedron (cavity tet with its vertex `face` replaced by the new point)
     std::uint32_t outer;  // neighbour code of the tetrahedron outside the cavity
@@ -184,7 +183,7 @@ class Triangulation3D {
   // and in a parallel pass its own recycled and fresh tetrahedron slots.
   // Aligned to keep one thread's hot counters and vector headers off another's cache lines.
   struct alignas(128) Worker {
-    // The cavity search's lists (insertCore fills them through raw pointers, sized to capacity).
+    // The cavity search's lists (findCavity fills them through raw pointers, sized to capacity).
     SlotArray<index_t> cavity;
     SlotArray<std::uint8_t> cavity_entry;  // per cavity tetrahedron, the face it was reached through
     SlotArray<BoundaryFace> boundary;
@@ -204,13 +203,16 @@ class Triangulation3D {
     std::vector<index_t> deferred;
     Stats stats;
   };
-  struct Everything;  // ownership policy of the sequential insertion
-  struct CellSplit;   // the threads' cells of one parallel pass
-  struct Cell;        // ownership policy of one thread in a parallel pass
+  struct Everything;    // ownership policy of the sequential insertion
+  struct CellSplit;     // the threads' cells of one parallel pass (parallel_insertion.h)
+  struct Cell;          // ownership policy of one thread in a parallel pass (parallel_insertion.h)
+  struct ParallelPass;  // one pass of insertParallel (parallel_insertion.cpp)
 
-  // The insertion (walk, cavity, re-linking). Returns false, with nothing changed, when the policy
-  // does not own what the insertion would touch (never for Everything).
-  // Always inlined into the two compiled versions below, which insertOnThisCpu chooses between.
+  // ---- Insertion (triangulation_3d.cpp) ----
+  // The insertion: locate a tetrahedron in conflict, find the cavity, stellate it. Returns false, with
+  // nothing changed, when the policy does not own what the insertion would touch (never for
+  // Everything). Always inlined into the two compiled versions below, which insertOnThisCpu chooses
+  // between; so are its stages.
   template <class Owner>
   [[gnu::always_inline]] inline bool insertCore(index_t v, Worker& w, const Owner& own);
   template <class Owner>
@@ -219,6 +221,24 @@ class Triangulation3D {
   bool insertCoreV3(index_t v, Worker& w, const Owner& own);  // x86-64-v3 where the compiler can
   template <class Owner>
   bool insertOnThisCpu(index_t v, Worker& w, const Owner& own);
+  // Stage 1: a tetrahedron in conflict with v (at p), or kNoTet where a sharing owner must defer v.
+  template <class Owner>
+  [[gnu::always_inline]] inline index_t locateConflict(index_t v, const double* p, Worker& w, const Owner& own);
+  // Throws dw::Error when v repeats a vertex of t (the tetrahedron the walk stopped in).
+  [[gnu::always_inline]] inline void checkNotDuplicate(index_t v, index_t t) const;
+  // Stage 2: the cavity of v from tetrahedron t into w.cavity, and its boundary faces into w.boundary.
+  // False, with every mark cleared, where a sharing owner does not own a tetrahedron in conflict.
+  template <class Owner>
+  [[gnu::always_inline]] inline bool findCavity(index_t v, const double* p, index_t t, Worker& w,
+                                                const Owner& own);
+  // Stage 3: replaces the cavity by the tetrahedra joining v to its boundary faces. False, with
+  // nothing changed, when a parallel pass's slot pool is spent.
+  template <bool kShared>
+  [[gnu::always_inline]] inline bool stellateCavity(index_t v, Worker& w);
+  // Writes the new tetrahedra w.made, one on each boundary face: their vertices, their links with the
+  // tetrahedra outside, and their links with one another (on the faces through the new vertex).
+  template <bool kShared>
+  [[gnu::always_inline]] inline void writeNewTetrahedra(Worker& w);
   template <class Owner>
   bool ownsTet(index_t t, const Owner& own) const;
   // Where a walk to v (at p) starts: see the definition.
@@ -241,33 +261,17 @@ class Triangulation3D {
   template <bool kStopInConflict, class Owner>
   [[gnu::always_inline]] inline index_t walkTo(const double* p, index_t start, Worker& w, const Owner& own,
                                                std::uint64_t guard) const;
-  // Writes the new tetrahedra w.made, one on each boundary face: their vertices, their links with the
-  // tetrahedra outside, and their links with one another (on the faces through the new vertex).
-  template <bool kShared>
-  [[gnu::always_inline]] inline void writeNewTetrahedra(Worker& w);
+  // walkTo<false> over every tetrahedron, out of line (a parallel pass's read-only start search).
+  index_t walkAnywhere(const double* p, index_t start, Worker& w, std::uint64_t guard) const;
   // Moves slots from the pass's pool to w.free until it holds `count`; false when the pool is spent.
   bool takeSlots(Worker& w, std::size_t count);
-  void runParallelPass(std::vector<index_t>& pending, unsigned threads, unsigned pass);
   // build()'s body; `owned`, when given, is `order`'s vector, freed before the last batch.
   void buildBatches(const index_t* order, std::size_t n, const std::function<void(double)>& progress,
                     const std::vector<std::size_t>& batch_begin, unsigned num_threads,
                     std::vector<index_t>* owned);
-  // insertParallel() on a batch it takes over (validated by the caller).
-  void insertBatch(std::vector<index_t> pending, unsigned num_threads);
-
-  // The edge extraction in two stages (see the definitions): the live tetrahedra's sorted vertex
-  // quadruples listed by the range of ids owning their edges, then each range's edges from its lists.
-  // The lists hold everything the edges need: `give_back`, when given, is tet_v itself, which the
-  // caller frees next, and its pages go back to the system as they are listed.
-  struct RangeLists;
-  // `donor`, when given, is an array the caller frees next (the adjacency), whose storage the lists
-  // take over when it is big enough.
-  static RangeLists listByRange(const SlotArray<index_t>& tet_v, std::size_t num_points, unsigned num_threads,
-                                std::size_t first, std::size_t last, SlotArray<index_t>* give_back = nullptr,
-                                SlotArray<index_t>* donor = nullptr);
-  // `edge_bound`, when not 0, bounds the edge count: the edges then go into one chunk, on any number
-  // of threads (each range written where the range before it ends).
-  static EdgeChunks edgesOfRanges(RangeLists&& lists, unsigned num_threads, std::size_t edge_bound = 0);
+  // buildBatches' checks of the input and its first tetrahedron; returns the positions in `order` of
+  // the first tetrahedron's third and fourth vertices (the first two are order[0] and order[1]).
+  std::pair<std::size_t, std::size_t> startBuild(const index_t* order, std::size_t n);
   void initialTetrahedron(index_t a, index_t b, index_t c, index_t d);
   index_t locate(index_t v, index_t start);
   template <bool kStopInConflict>
@@ -278,16 +282,8 @@ class Triangulation3D {
   bool finiteInConflict(index_t t, index_t v, const predicates::BroadcastPoint& p) const;
   // t has the infinite vertex: is v beyond its hull facet (or on it and in conflict behind it)?
   bool infiniteInConflict(index_t t, index_t v, const predicates::BroadcastPoint& p) const;
-  index_t newTet();
-  // Grows the arrays until the sequential free list holds at least `count` slots.
-  void ensureFreeSlots(std::size_t count);
-  // The three per-slot arrays (vertices, neighbour codes, marks) together; new slots read as recycled.
-  void reserveSlots(std::size_t slots);
-  // resizeSlots: new slots are cleared (recycled state). sizeSlotsUnwritten: new slots are left for
-  // whoever takes them to clear (a parallel pass's fresh range; takeSlots).
-  void resizeSlots(std::size_t slots);
-  void sizeSlotsUnwritten(std::size_t slots);
-  void clearSlot(std::size_t t);
+  index_t newTet() { return mesh_.newTet(clock()); }
+  void ensureFreeSlots(std::size_t count) { mesh_.ensureFreeSlots(count, clock()); }
   void point(index_t v, double out[3]) const {
     const Vec3f& p = points_[v];
     out[0] = p.x;
@@ -295,21 +291,20 @@ class Triangulation3D {
     out[2] = p.z;
   }
 
+  // ---- Parallel insertion (parallel_insertion.cpp) ----
+  // insertParallel() on a batch it takes over (validated by the caller).
+  void insertBatch(std::vector<index_t> pending, unsigned num_threads);
+
+  // ---- Vertex removal (vertex_removal.cpp) ----
+  // A tetrahedron of v's star; throws dw::Error when v is not present.
+  index_t starRoot(index_t v);
+
   const Vec3f* points_ = nullptr;
   std::size_t num_points_ = 0;
   std::size_t num_inserted_ = 0;
+  std::size_t num_removed_ = 0;
 
-  // Vertices and neighbour codes in separate arrays (measured: interleaving them in one cache line
-  // made no difference), so the adjacency can be freed before the edge extraction, which needs only
-  // the vertices: that keeps the builder's peak near one copy of the tetrahedra.
-  SlotArray<index_t> tet_v_;        // 4 per tetrahedron
-  SlotArray<std::uint32_t> tet_n_;  // 4 per tetrahedron: neighbour tet * 4 + the shared face's index there
-  // Per tetrahedron, during one insertion. Not a char type, so that its stores do not force the
-  // compiler to reload everything else (char may alias any object).
-  enum class Mark : std::uint8_t { kUnknown, kCavity, kOutside, kQueued };
-  SlotArray<Mark> mark_;
-  std::vector<index_t> free_;         // recycled tetrahedra
-  std::vector<std::uint32_t> birth_;  // per tetrahedron, with track_births_
+  TetraMesh mesh_;
   // The linking's hash table: at least kLinkMinEntries entries and kLinkLoad per directed edge. A
   // typical boundary's ~80 directed edges fill 2 % of it, so a probe nearly always ends at once (2048
   // entries: 1.7 more simulated mispredictions per point; tables of 1024 and 2048 sized per insertion
@@ -321,15 +316,14 @@ class Triangulation3D {
   static constexpr std::uint64_t kNoLinkKey = ~std::uint64_t(0);
   static constexpr std::uint64_t kLinkTombstone = kNoLinkKey - 1;
   // Per vertex: a tetrahedron holding it, kept exact by every insertion (vertex removal may leave it
-  // stale, so users check; kNoVertexTet before insertion); parallel walks restart from it (insertCore).
+  // stale, so users check; kNoVertexTet before insertion); parallel walks restart from it.
   static constexpr index_t kNoVertexTet = 0x7FFFFFFFu;  // above every tetrahedron id
   std::vector<index_t> vertex_tet_;
-  bool track_births_ = false;
 
   Worker seq_;  // the calling thread's scratch (insert(), build(), the sequential rest of a batch)
   // Parallel pass: the slot pool (recycled slots pool_, then the fresh range [fresh_begin_,
   // fresh_end_)) handed out in chunks from position pool_next_ (advanced with atomic builtins; a
-  // std::atomic member would make the kernel immovable).
+  // std::atomic member would make the triangulation immovable).
   std::vector<index_t> pool_;
   std::size_t pool_next_ = 0;
   std::size_t fresh_begin_ = 0;

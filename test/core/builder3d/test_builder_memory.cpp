@@ -1,8 +1,8 @@
 // The 3D builder's peak memory when graphs are built one after another in one process (the
-// scan-to-scan case builds one per frame): each build must stay within the 250 bytes per
-// point, not only the first. Before the kernel gave its freed arrays' pages back, glibc kept them
-// resident once an earlier build had raised its mmap threshold, and the edge extraction's buffers
-// landed on fresh pages beside them: the second 100k-point build on 2 threads peaked at 259 B/pt.
+// scan-to-scan case builds one per frame): each build must stay within 250 bytes per
+// point, not only the first. Unless the triangulation gives its freed arrays' pages back, glibc keeps
+// them resident once an earlier build has raised its mmap threshold, and the edge extraction's
+// buffers land on fresh pages beside them (the second 100k-point build on 2 threads: 259 B/pt).
 #include <gtest/gtest.h>
 
 #include <random>

@@ -107,7 +107,7 @@ TEST(Triangulation3D, UniformIsValidAndEdgesAreUnique) {
   const Edges e = kernelEdges(k, 1);
   EXPECT_EQ(b3d_test::normalise(e).size(), e.size()) << "an edge was emitted twice";
   for (const auto& p : e) ASSERT_LT(p.first, p.second);
-  // Volumetric Delaunay: about 7.7 undirected edges per vertex (DESIGN.md: mean degree ~15.5).
+  // Volumetric Delaunay: about 7.7 undirected edges per vertex (mean degree ~15.5).
   EXPECT_GT(e.size(), 6 * pts.size());
   EXPECT_LT(e.size(), 9 * pts.size());
   EXPECT_EQ(k.stats().fallback_locations, 0u);
