@@ -1,6 +1,7 @@
 /// \file space_filling_curve.h
-/// \brief Morton (Z-order) keys: vertices sorted by them make graph neighbours near in memory, which
-/// measured 3-6x faster walks than input order (DESIGN.md §2).
+/// \brief The space-filling curves: Morton (Z-order) keys in 3D, which order the graph's vertices so
+/// that graph neighbours are near in memory (3-6x faster walks than input order: docs/architecture.md,
+/// "The walk graph"), and the 2D Hilbert key that orders the TIN strips' insertions.
 #pragma once
 
 #include <algorithm>
