@@ -2,6 +2,7 @@
 /// \brief The MPI driver: range read of one LAS file or a pre-split set, sampled slab splitters, all-to-all
 /// redistribution, leaf triangulation, and the pairwise merge tree over ranks.
 #include "pcl_delaunay_walk/mpi/distributed_tin.h"
+#include "mpi/collectives.h"
 #include "mpi/fault_injection.h"
 
 #include <algorithm>
@@ -16,6 +17,8 @@ namespace dw {
 namespace mpi {
 namespace {
 
+using collective::toInt;
+
 double since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -24,12 +27,6 @@ struct PointRecord {  // one point in flight between ranks
   double x, y, z;
   std::uint64_t gid;
 };
-
-int toInt(std::size_t bytes, const char* what) {
-  if (bytes > static_cast<std::size_t>(INT_MAX))
-    throw Error(std::string("dw::mpi: ") + what + " exceeds 2 GiB for one message; use more ranks");
-  return static_cast<int>(bytes);
-}
 
 void sendGroup(MPI_Comm comm, int to, const SlabGroup& g) {
   const std::vector<unsigned char> b = g.serialize();
@@ -101,10 +98,8 @@ RankTin triangulateDistributed(MPI_Comm comm, const DistributedTinOptions& optio
     mine.push_back({x, y, z, 0});
   });
   // Global indices count kept records in file order, exactly as the single-process reader does.
-  std::uint64_t kept = mine.size(), base = 0, total = 0;
-  MPI_Exscan(&kept, &base, 1, MPI_UINT64_T, MPI_SUM, comm);
-  if (me == 0) base = 0;
-  MPI_Allreduce(&kept, &total, 1, MPI_UINT64_T, MPI_SUM, comm);
+  const collective::RankRange kept = collective::rankRange(comm, mine.size());
+  const std::uint64_t base = kept.first, total = kept.total;
   t.total_points = total;
   if (total == 0) throw Error(name + ": no points to triangulate");
   if (total >= 0xffffffffull) throw Error(name + ": too many points for 32-bit global indices");
@@ -132,12 +127,7 @@ RankTin triangulateDistributed(MPI_Comm comm, const DistributedTinOptions& optio
     const std::size_t m = std::min<std::size_t>(mine.size(), 8192);
     std::vector<double> sample(m);
     for (std::size_t k = 0; k < m; ++k) sample[k] = along(mine[k * mine.size() / m]);
-    const int mi = static_cast<int>(m);
-    std::vector<int> counts(P), displs(P, 0);
-    MPI_Allgather(&mi, 1, MPI_INT, counts.data(), 1, MPI_INT, comm);
-    for (int r = 1; r < P; ++r) displs[r] = displs[r - 1] + counts[r - 1];
-    std::vector<double> all(static_cast<std::size_t>(displs[P - 1] + counts[P - 1]));
-    MPI_Allgatherv(sample.data(), mi, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, comm);
+    std::vector<double> all = collective::allGather(comm, sample);
     std::sort(all.begin(), all.end());
     for (int r = 1; r < P; ++r) split[r] = all.empty() ? INFINITY : all[r * all.size() / P];
   }
@@ -155,10 +145,6 @@ RankTin triangulateDistributed(MPI_Comm comm, const DistributedTinOptions& optio
     dest[i] = std::isfinite(mine[i].x) && std::isfinite(mine[i].y) ? slabOf(mine[i]) : -1;
     if (dest[i] >= 0) ++send_n[dest[i]], ++finite;
   }
-  std::vector<int> scount(P), sdispl(P, 0), rcount(P), rdispl(P, 0);
-  for (int r = 0; r < P; ++r) scount[r] = toInt(send_n[r] * sizeof(PointRecord), "a redistribution message");
-  for (int r = 1; r < P; ++r) sdispl[r] = sdispl[r - 1] + scount[r - 1];
-  toInt(finite * sizeof(PointRecord), "one rank's share");
   std::vector<PointRecord> out(finite);
   {
     std::vector<std::size_t> fill(P, 0);
@@ -168,13 +154,8 @@ RankTin triangulateDistributed(MPI_Comm comm, const DistributedTinOptions& optio
   }
   std::vector<PointRecord>().swap(mine);
   std::vector<int>().swap(dest);
-  MPI_Alltoall(scount.data(), 1, MPI_INT, rcount.data(), 1, MPI_INT, comm);
-  std::size_t rbytes = rcount[0];
-  for (int r = 1; r < P; ++r) rdispl[r] = toInt(rbytes, "one rank's slab"), rbytes += rcount[r];
-  toInt(rbytes, "one rank's slab");
-  std::vector<PointRecord> slab(rbytes / sizeof(PointRecord));
-  MPI_Alltoallv(out.data(), scount.data(), sdispl.data(), MPI_BYTE, slab.data(), rcount.data(), rdispl.data(),
-                MPI_BYTE, comm);
+  std::vector<PointRecord> slab =
+      collective::exchangeRecords(comm, out, send_n, "a redistribution message", "one rank's share", "one rank's slab");
   std::vector<PointRecord>().swap(out);
   SlabPoints pts;
   pts.reserve(slab.size());
