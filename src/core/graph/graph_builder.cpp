@@ -8,7 +8,7 @@
 #include "core/graph/prepare_vertices.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
 #include "core/util/space_filling_curve.h"
-#include "core/geometry/vec3d.h"
+#include "core/geometry/affine_span.h"
 
 namespace dw {
 
@@ -21,47 +21,6 @@ void report(const BuildOptions& o, const char* stage, double f) {
 /// Vertex sets this small get the complete graph: trivially exact, and it spares the Delaunay
 /// builders their degenerate small cases (< 4 points, all coplanar, ...).
 constexpr std::size_t kCompleteGraphMax = 8;
-
-/// Affine dimension of the vertex set and, for dim 2, an orthonormal in-plane basis; for dim 1, the
-/// line direction in basis[0..2]. Thresholds are relative to the extent; below 1e-9 the off-plane
-/// part of a distance is under float resolution for any query, so the lower-dimensional graph is
-/// exact (distance^2 = in-plane^2 + off-plane^2, DESIGN.md §2).
-int affineDimension(const std::vector<Vec3f>& p, double basis[6], double rel_tol = 1e-9) {
-  if (p.empty()) return 0;
-  const auto p0 = toVec3d(p[0]);
-  std::size_t i1 = 0;
-  double best = 0;
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    const auto d = sub(toVec3d(p[i]), p0);
-    const double l = dot(d, d);
-    if (l > best) best = l, i1 = i;
-  }
-  if (best == 0) return 0;
-  const double extent = std::sqrt(best);
-  const double tol = rel_tol * extent;
-  auto dir = sub(toVec3d(p[i1]), p0);
-  for (double& c : dir) c /= extent;
-  std::size_t i2 = 0;
-  best = 0;
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    const auto d = sub(toVec3d(p[i]), p0);
-    const auto c = cross(dir, d);
-    const double l = dot(c, c);
-    if (l > best) best = l, i2 = i;
-  }
-  basis[0] = dir[0], basis[1] = dir[1], basis[2] = dir[2];
-  if (std::sqrt(best) <= tol) return 1;
-  auto w = sub(toVec3d(p[i2]), p0);
-  const double t = dot(w, dir);
-  for (int a = 0; a < 3; ++a) w[a] -= t * dir[a];
-  const double wl = std::sqrt(dot(w, w));
-  for (double& c : w) c /= wl;
-  basis[3] = w[0], basis[4] = w[1], basis[5] = w[2];
-  const auto nrm = cross(dir, w);
-  double off = 0;
-  for (const Vec3f& q : p) off = std::max(off, std::fabs(dot(sub(toVec3d(q), p0), nrm)));
-  return off <= tol ? 2 : 3;
-}
 
 EdgeList completeGraph(std::size_t n) {
   EdgeList e;
@@ -102,7 +61,7 @@ EdgeList chainAlongLine(const std::vector<Vec3f>& p, const double dir[3]) {
 /// edge is listed once.
 EdgeList delaunayEdges(DelaunayGraph& g, const BuildOptions& options, bool& distinct) {
   double basis[6] = {0, 0, 0, 0, 0, 0};
-  g.dimension = affineDimension(g.points, basis);
+  g.dimension = toleranceAffineDimension(g.points, basis);
   const std::size_t nv = g.points.size();
   distinct = false;
   if (nv <= kCompleteGraphMax) return completeGraph(nv);
@@ -123,7 +82,7 @@ EdgeList delaunayEdges(DelaunayGraph& g, const BuildOptions& options, bool& dist
   } catch (const Error&) {
     // Nearly flat sets (a tilted plane rounded to float) can defeat a 3D builder; within 1e-6 of the
     // extent the planar graph errs by less than float resolution on the query distances.
-    if (affineDimension(g.points, basis, 1e-6) != 2) throw;
+    if (toleranceAffineDimension(g.points, basis, 1e-6) != 2) throw;
     g.dimension = 2;
     distinct = false;
     return qhullDelaunayEdges(g.points, 2, basis);
