@@ -159,14 +159,14 @@ int main(int argc, char** argv) {
                            tin.timings.leaf_s,
                            tin.timings.merge_s,
                            tin.timings.write_s,
-                           double(tin.slab_points),
+                           double(tin.strip_points),
                            double(tin.emitted.triangles.size() / 3),
                            double(tin.emitted.band_points)};
     std::vector<double> rows(8 * static_cast<std::size_t>(size));
     MPI_Gather(row, 8, MPI_DOUBLE, rows.data(), 8, MPI_DOUBLE, 0, MPI_COMM_WORLD);
     if (rank == 0 && !quiet) {
       std::fprintf(stderr,
-                   "rank   read_s  exch_s  leaf_s merge_s write_s   slab_pts  emitted_tris  triangulated\n");
+                   "rank   read_s  exch_s  leaf_s merge_s write_s  strip_pts  emitted_tris  triangulated\n");
       for (int r = 0; r < size; ++r) {
         const double* v = &rows[8 * r];
         std::fprintf(stderr, "%4d %8.2f %7.2f %7.2f %7.2f %7.2f %10.0f %13.0f %13.0f\n", r, v[0], v[1], v[2],

@@ -1,8 +1,8 @@
 /// \file distributed_tin.h
 /// \brief MPI driver of the distributed 2D Delaunay TIN: every rank reads its own range of the records of
 /// a LAS file or of a pre-split set of LAS files (las_input_set.h), points are redistributed into equal-count
-/// slabs along the long axis (sampled splitters, MPI_Alltoallv), each rank triangulates its slab and emits
-/// what is provably final, and the rest is merged up a log-depth tree of rank pairs (slab_group.h). The union
+/// strips along the long axis (sampled splitters, MPI_Alltoallv), each rank triangulates its strip and emits
+/// what is provably final, and the rest is merged up a log-depth tree of rank pairs (strip_group.h). The union
 /// of all ranks' emitted triangles is exactly the single-process dw::tin::triangulate result on the same
 /// input (docs/mpi.md).
 #pragma once
@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "pcl_delaunay_walk/mpi/las_input_set.h"
-#include "pcl_delaunay_walk/mpi/slab_group.h"
+#include "pcl_delaunay_walk/mpi/strip_group.h"
 
 namespace dw {
 namespace mpi {
@@ -42,9 +42,9 @@ struct RankTin {
   int rank = 0, size = 1;
   Frame frame;
   std::uint64_t total_points = 0;  ///< kept records over all ranks (global indices 0 .. total - 1)
-  std::size_t slab_points = 0;     ///< points this rank triangulated at its leaf
+  std::size_t strip_points = 0;     ///< points this rank triangulated at its leaf
   Emitted emitted;                 ///< triangles this rank emitted (leaf and the merges it hosted)
-  SlabPoints coords;  ///< frame x, y and world z of every vertex this rank's triangles use (by gid)
+  StripPoints coords;  ///< frame x, y and world z of every vertex this rank's triangles use (by gid)
   RankTimings timings;
   /// Testing hook forwarded from the options.
 };

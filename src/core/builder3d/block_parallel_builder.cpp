@@ -11,34 +11,23 @@
 #include "triangulation_3d.h"
 #include "insertion_order.h"
 #include "core/geometry/rounded_circumsphere.h"
+#include "core/graph/cell_grid.h"
 
 namespace dw {
 namespace builder3d {
 namespace {
 
-/// Uniform grid over all points (about 4 points per cell on volumetric data): the unit in which a
-/// block's halo grows and in which "every point of this ball is present" is decided.
-struct CellGrid {
-  double lo[3] = {0, 0, 0};
-  double cell = 1.0;
-  int dims[3] = {1, 1, 1};
+/// The cells of all points (about 4 per cell on volumetric data): a CellGrid over their bounding box
+/// and, per cell, its points (CSR).
+struct PointCells {
+  CellGrid grid;
   std::vector<std::uint32_t> cell_of;  // per point
   std::vector<std::uint32_t> start;    // CSR over cells
   std::vector<index_t> members;
 
-  std::size_t numCells() const { return std::size_t(dims[0]) * dims[1] * dims[2]; }
-  int coord(double v, int k) const {
-    const double c = std::floor((v - lo[k]) / cell);
-    return static_cast<int>(std::min(std::max(c, 0.0), double(dims[k] - 1)));
-  }
-  std::uint32_t index(int x, int y, int z) const {
-    return static_cast<std::uint32_t>((std::size_t(x) * dims[1] + y) * dims[2] + z);
-  }
-
-  explicit CellGrid(const std::vector<Vec3f>& p) {
+  explicit PointCells(const std::vector<Vec3f>& p) {
     const std::size_t n = p.size();
-    double hi[3] = {p[0].x, p[0].y, p[0].z};
-    lo[0] = hi[0], lo[1] = hi[1], lo[2] = hi[2];
+    double lo[3] = {p[0].x, p[0].y, p[0].z}, hi[3] = {p[0].x, p[0].y, p[0].z};
     for (const Vec3f& q : p) {
       const double c[3] = {q.x, q.y, q.z};
       for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], c[k]), hi[k] = std::max(hi[k], c[k]);
@@ -49,16 +38,20 @@ struct CellGrid {
       emax = std::max(emax, ext[k]);
     }
     for (int k = 0; k < 3; ++k) vol *= std::max(ext[k], emax * 1e-3);
-    cell = std::max(std::cbrt(vol / std::max<double>(1.0, double(n) / 4.0)), emax / 1024.0);
+    double cell = std::max(std::cbrt(vol / std::max<double>(1.0, double(n) / 4.0)), emax / 1024.0);
     if (!(cell > 0.0)) cell = 1.0;
-    for (int k = 0; k < 3; ++k) dims[k] = std::max(1, std::min(1024, int(std::ceil(ext[k] / cell)) + 1));
+    for (int k = 0; k < 3; ++k) {
+      grid.base[k] = lo[k];
+      grid.dims[k] = std::max(1, std::min(1024, int(std::ceil(ext[k] / cell)) + 1));
+    }
+    grid.width = cell;
     cell_of.resize(n);
-    start.assign(numCells() + 1, 0);
+    start.assign(grid.numCells() + 1, 0);
     for (std::size_t i = 0; i < n; ++i) {
-      cell_of[i] = index(coord(p[i].x, 0), coord(p[i].y, 1), coord(p[i].z, 2));
+      cell_of[i] = grid.index(grid.coord(p[i].x, 0), grid.coord(p[i].y, 1), grid.coord(p[i].z, 2));
       ++start[cell_of[i] + 1];
     }
-    for (std::size_t c = 0; c < numCells(); ++c) start[c + 1] += start[c];
+    for (std::size_t c = 0; c < grid.numCells(); ++c) start[c + 1] += start[c];
     members.resize(n);
     std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
     for (std::size_t i = 0; i < n; ++i) members[fill[cell_of[i]]++] = static_cast<index_t>(i);
@@ -68,38 +61,30 @@ struct CellGrid {
 /// One block: its own vertex range, the cells it holds completely, its kernel.
 class Block {
  public:
-  Block(const std::vector<Vec3f>& points, const CellGrid& grid, std::size_t first, std::size_t last)
-      : points_(points), grid_(grid), first_(first), last_(last), covered_(grid.numCells(), 0) {}
+  Block(const std::vector<Vec3f>& points, const PointCells& cells, std::size_t first, std::size_t last)
+      : points_(points),
+        cells_(cells),
+        grid_(cells.grid),
+        first_(first),
+        last_(last),
+        covered_(cells.grid.numCells(), 0) {}
 
   // Own cells plus one ring of cells around them, triangulated.
   void triangulate() {
     std::vector<std::uint32_t> own;
     for (std::size_t i = first_; i < last_; ++i) {
-      const std::uint32_t c = grid_.cell_of[i];
+      const std::uint32_t c = cells_.cell_of[i];
       if (!covered_[c]) {
         covered_[c] = 1;
         own.push_back(c);
       }
     }
     std::vector<index_t> ids;
-    for (std::uint32_t c : own) {
-      const int x = int(c / (std::size_t(grid_.dims[1]) * grid_.dims[2]));
-      const int y = int((c / grid_.dims[2]) % grid_.dims[1]);
-      const int z = int(c % grid_.dims[2]);
-      for (int dx = -1; dx <= 1; ++dx)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dz = -1; dz <= 1; ++dz) {
-            const int X = x + dx, Y = y + dy, Z = z + dz;
-            if (X < 0 || Y < 0 || Z < 0 || X >= grid_.dims[0] || Y >= grid_.dims[1] || Z >= grid_.dims[2])
-              continue;
-            const std::uint32_t nc = grid_.index(X, Y, Z);
-            if (!covered_[nc]) covered_[nc] = 1;
-          }
-    }
+    for (std::uint32_t c : own) grid_.forRing(c, [&](std::uint32_t nc) { covered_[nc] = 1; });
     for (std::size_t c = 0; c < grid_.numCells(); ++c)
       if (covered_[c])
-        ids.insert(ids.end(), grid_.members.begin() + grid_.start[c],
-                   grid_.members.begin() + grid_.start[c + 1]);
+        ids.insert(ids.end(), cells_.members.begin() + cells_.start[c],
+                   cells_.members.begin() + cells_.start[c + 1]);
     halo_points_ = ids.size() - (last_ - first_);
     const std::vector<index_t> order = brioOrder(points_, std::move(ids));
     kernel_.setPoints(points_.data(), points_.size());
@@ -116,7 +101,7 @@ class Block {
   void certify(const std::vector<index_t>& hull) {
     grow();
     for (index_t h : hull)
-      if (!covered_[grid_.cell_of[h]]) {
+      if (!covered_[cells_.cell_of[h]]) {
         kernel_.insert(h);
         extra_.push_back(h);
       }
@@ -171,8 +156,8 @@ class Block {
       ++rounds_;
       std::vector<index_t> ids;
       for (std::uint32_t c : grown)
-        for (std::uint32_t k = grid_.start[c]; k < grid_.start[c + 1]; ++k) {
-          const index_t id = grid_.members[k];
+        for (std::uint32_t k = cells_.start[c]; k < cells_.start[c + 1]; ++k) {
+          const index_t id = cells_.members[k];
           if (!std::binary_search(extra_.begin(), extra_.end(), id)) ids.push_back(id);
         }
       std::sort(ids.begin(), ids.end());  // Morton order: short walks between insertions
@@ -189,40 +174,32 @@ class Block {
   // has, every point of the ball is in the kernel: the tetrahedron is certified.
   void missingUnderBall(const index_t* tv, std::vector<std::uint32_t>& grown) {
     const RoundedCircumsphere ball =
-        roundedCircumsphere(points_[tv[0]], points_[tv[1]], points_[tv[2]], points_[tv[3]], grid_.cell);
+        roundedCircumsphere(points_[tv[0]], points_[tv[1]], points_[tv[2]], points_[tv[3]], grid_.width);
     const double R = ball.radius;
     int range[3][2];
-    if (ball.unbounded()) {
-      for (int k = 0; k < 3; ++k)
-        range[k][0] = 0, range[k][1] = grid_.dims[k] - 1;  // a flat sliver: take all
-    } else {
-      for (int k = 0; k < 3; ++k) {
-        range[k][0] = grid_.coord(ball.centre[k] - R, k);
-        range[k][1] = grid_.coord(ball.centre[k] + R, k);
-      }
-    }
+    grid_.cellsUnderBall(ball.centre, R, ball.unbounded(), 0.0, range);
     const double* centre = ball.centre;
     const bool all = !std::isfinite(R);
     const double R2 = R * R;
     for (int x = range[0][0]; x <= range[0][1]; ++x)
       for (int y = range[1][0]; y <= range[1][1]; ++y)
         for (int z = range[2][0]; z <= range[2][1]; ++z) {
-          const std::uint32_t c = grid_.index(x, y, z);
-          if (covered_[c] || grid_.start[c] == grid_.start[c + 1]) continue;
+          const std::uint32_t c = grid_.index(std::uint32_t(x), std::uint32_t(y), std::uint32_t(z));
+          if (covered_[c] || cells_.start[c] == cells_.start[c + 1]) continue;
           if (!all) {
             // Skip cells whose box misses the ball: huge spheres of hull slivers only cut a cap.
             const int xyz[3] = {x, y, z};
             double d2 = 0.0;
             for (int k = 0; k < 3; ++k) {
-              const double b0 = grid_.lo[k] + xyz[k] * grid_.cell, b1 = b0 + grid_.cell;
+              const double b0 = grid_.base[k] + xyz[k] * grid_.width, b1 = b0 + grid_.width;
               const double d = centre[k] < b0 ? b0 - centre[k] : (centre[k] > b1 ? centre[k] - b1 : 0.0);
               d2 += d * d;
             }
             if (d2 > R2 * (1.0 + 1e-12)) continue;
           }
           bool inside = all;
-          for (std::uint32_t k = grid_.start[c]; k < grid_.start[c + 1] && !inside; ++k) {
-            const Vec3f& q = points_[grid_.members[k]];
+          for (std::uint32_t k = cells_.start[c]; k < cells_.start[c + 1] && !inside; ++k) {
+            const Vec3f& q = points_[cells_.members[k]];
             const double dx = q.x - centre[0], dy = q.y - centre[1], dz = q.z - centre[2];
             inside = dx * dx + dy * dy + dz * dz <= R2;
           }
@@ -233,6 +210,7 @@ class Block {
   }
 
   const std::vector<Vec3f>& points_;
+  const PointCells& cells_;
   const CellGrid& grid_;
   std::size_t first_, last_;
   std::vector<std::uint8_t> covered_;  // cells whose points are all in the kernel
@@ -278,11 +256,11 @@ EdgeList blockParallelDelaunayEdges(const std::vector<Vec3f>& points, unsigned n
     if (stats) *stats = BlockBuildStats{1, 0, 0, 0};
     return Triangulation3D::joinChunks(k.releaseIntoEdgeChunks(1));
   }
-  const CellGrid grid(points);
+  const PointCells cells(points);
   std::vector<Block> blocks;
   blocks.reserve(num_blocks);
   for (unsigned b = 0; b < num_blocks; ++b)
-    blocks.emplace_back(points, grid, n * b / num_blocks, n * (b + 1) / num_blocks);
+    blocks.emplace_back(points, cells, n * b / num_blocks, n * (b + 1) / num_blocks);
 
   // Map: every block triangulates its cells plus one ring.
   parallelFor(num_blocks, [&](std::size_t b) { blocks[b].triangulate(); });

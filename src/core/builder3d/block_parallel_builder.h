@@ -1,5 +1,5 @@
 /// \file block_parallel_builder.h
-/// \brief Block-parallel 3D Delaunay edges (issue 8): the map step of the strip idea (Song, Li, Liu)
+/// \brief Block-parallel 3D Delaunay edges: the map step of the strip idea (Song, Li, Liu)
 /// in 3D, with halos certified instead of a merge (in 3D a flip-based merge can get stuck).
 ///
 /// Blocks are ranges of vertex ids, which are in Morton order, hence spatially compact. Each block

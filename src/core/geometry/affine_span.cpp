@@ -1,7 +1,12 @@
-// Exact affine span test: a point distinct from the first, then one off their line, then one off their
-// plane. Exact predicates, so a float-rounded "nearly flat" set counts as 3D exactly when the kernel can
-// triangulate it.
+// The affine dimension, exact (affineSpan: a point distinct from the first, then one off their line,
+// then one off their plane; a float-rounded "nearly flat" set counts as 3D exactly when the kernel can
+// triangulate it) and within a tolerance (toleranceAffineDimension: farthest points, in double).
 #include "affine_span.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/geometry/vec3d.h"
 
 #include "pcl_delaunay_walk/core/geometry/predicates_3d.h"
 
@@ -68,4 +73,42 @@ bool spans3D(const Vec3f* points, const index_t* ids, std::size_t n, index_t* te
 }
 
 }  // namespace builder3d
+
+int toleranceAffineDimension(const std::vector<Vec3f>& p, double basis[6], double rel_tol) {
+  if (p.empty()) return 0;
+  const auto p0 = toVec3d(p[0]);
+  std::size_t i1 = 0;
+  double best = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto d = sub(toVec3d(p[i]), p0);
+    const double l = dot(d, d);
+    if (l > best) best = l, i1 = i;
+  }
+  if (best == 0) return 0;
+  const double extent = std::sqrt(best);
+  const double tol = rel_tol * extent;
+  auto dir = sub(toVec3d(p[i1]), p0);
+  for (double& c : dir) c /= extent;
+  std::size_t i2 = 0;
+  best = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto d = sub(toVec3d(p[i]), p0);
+    const auto c = cross(dir, d);
+    const double l = dot(c, c);
+    if (l > best) best = l, i2 = i;
+  }
+  basis[0] = dir[0], basis[1] = dir[1], basis[2] = dir[2];
+  if (std::sqrt(best) <= tol) return 1;
+  auto w = sub(toVec3d(p[i2]), p0);
+  const double t = dot(w, dir);
+  for (int a = 0; a < 3; ++a) w[a] -= t * dir[a];
+  const double wl = std::sqrt(dot(w, w));
+  for (double& c : w) c /= wl;
+  basis[3] = w[0], basis[4] = w[1], basis[5] = w[2];
+  const auto nrm = cross(dir, w);
+  double off = 0;
+  for (const Vec3f& q : p) off = std::max(off, std::fabs(dot(sub(toVec3d(q), p0), nrm)));
+  return off <= tol ? 2 : 3;
+}
+
 }  // namespace dw

@@ -1,9 +1,14 @@
 /// \file affine_span.h
-/// \brief Exact test of whether a set of points spans 3D (the precondition of a 3D triangulation): the
-/// kernel's first tetrahedron, vertex removal and the sliding-window graph.
+/// \brief The affine dimension of a point set, in its two forms:
+///  - affineSpan / spans3D: EXACT (predicates), the first points found that span; the precondition of a
+///    3D triangulation (the kernel's first tetrahedron, vertex removal, the sliding-window graph).
+///  - toleranceAffineDimension: within a tolerance relative to the extent, with an in-plane basis; it
+///    picks the graph's construction (a chain on a line, the planar graph, the 3D one), for which a
+///    set flat to below float resolution is flat.
 #pragma once
 
 #include <cstddef>
+#include <vector>
 
 #include "pcl_delaunay_walk/core/graph/types.h"
 
@@ -21,4 +26,11 @@ int affineSpan(const Vec3f* points, const index_t* ids, std::size_t n, std::size
 bool spans3D(const Vec3f* points, const index_t* ids, std::size_t n, index_t* tetrahedron = nullptr);
 
 }  // namespace builder3d
+
+/// Affine dimension (0..3) of p within rel_tol times its extent and, for dimension 2, an orthonormal
+/// in-plane basis in basis[0..5]; for dimension 1, the line direction in basis[0..2]. Below 1e-9 the
+/// off-plane part of a distance is under float resolution for any query, so the lower-dimensional
+/// graph is exact (distance^2 = in-plane^2 + off-plane^2).
+int toleranceAffineDimension(const std::vector<Vec3f>& p, double basis[6], double rel_tol = 1e-9);
+
 }  // namespace dw

@@ -1,6 +1,6 @@
-/// \file slab_group.cpp
-/// \brief Leaf and merge steps of the distributed TIN (see slab_group.h and docs/mpi.md for the proof).
-#include "pcl_delaunay_walk/mpi/slab_group.h"
+/// \file strip_group.cpp
+/// \brief Leaf and merge steps of the distributed TIN (see strip_group.h and docs/mpi.md for the proof).
+#include "pcl_delaunay_walk/mpi/strip_group.h"
 
 #include <algorithm>
 #include <cmath>
@@ -24,7 +24,7 @@ std::uint64_t edgeKey(index_t a, index_t b) {
 /// computed relative to a; the margin bounds the rounding of every step with a constant several times
 /// the textbook one, and ill-conditioned (nearly collinear) triangles are simply not sure: a wrong
 /// "unsure" only costs merge time, a wrong "sure" would break exactness.
-bool sureInSlab(double ax, double ay, double bx_, double by_, double cx_, double cy_, int axis, double lo,
+bool sureInStrip(double ax, double ay, double bx_, double by_, double cx_, double cy_, int axis, double lo,
                 double hi) {
   if (std::isinf(lo) && lo < 0 && std::isinf(hi) && hi > 0) return true;
   const double bx = bx_ - ax, by = by_ - ay, cx = cx_ - ax, cy = cy_ - ay;
@@ -73,7 +73,7 @@ class EdgeTable {
   std::vector<index_t> head_, triangle_;
 };
 
-index_t localIndex(const SlabPoints& v, index_t gid) {
+index_t localIndex(const StripPoints& v, index_t gid) {
   const auto it = std::lower_bound(v.gid.begin(), v.gid.end(), gid);
   if (it == v.gid.end() || *it != gid)
     throw Error("dw::mpi: internal inconsistency: fence vertex " + std::to_string(gid) +
@@ -81,7 +81,7 @@ index_t localIndex(const SlabPoints& v, index_t gid) {
   return static_cast<index_t>(it - v.gid.begin());
 }
 
-void checkSorted(const SlabPoints& v, const char* who) {
+void checkSorted(const StripPoints& v, const char* who) {
   if (v.x.size() != v.size() || v.y.size() != v.size() || v.z.size() != v.size())
     throw Error(std::string(who) + ": point arrays have different lengths");
   for (std::size_t i = 1; i < v.size(); ++i)
@@ -92,8 +92,8 @@ void checkSorted(const SlabPoints& v, const char* who) {
 
 /// The step shared by leaves and merges: DT(V), minus what the fences say is already emitted, split
 /// into the emitted (sure in [lo, hi)) and the rest, whose vertices and hull go up as the new band.
-SlabGroup processSlab(SlabPoints&& v, const std::vector<std::uint64_t>& gid_fences, int axis, double lo,
-                      double hi, Emitted& out, const SlabOptions& options) {
+StripGroup processStrip(StripPoints&& v, const std::vector<std::uint64_t>& gid_fences, int axis, double lo,
+                      double hi, Emitted& out, const StripOptions& options) {
   const std::size_t n = v.size();
   tin::TinOptions topt;
   topt.num_threads = std::max(1u, options.num_threads);
@@ -150,19 +150,19 @@ SlabGroup processSlab(SlabPoints&& v, const std::vector<std::uint64_t>& gid_fenc
     }
   }
 
-  // Emit what is sure in the slab.
+  // Emit what is sure in the strip.
   out.triangles.reserve(out.triangles.size() + tri.size());
   for (std::size_t t = 0; t < nt; ++t) {
     if (state[t] == kDead) continue;
     const index_t a = tri[3 * t], b = tri[3 * t + 1], c = tri[3 * t + 2];
-    if (sureInSlab(v.x[a], v.y[a], v.x[b], v.y[b], v.x[c], v.y[c], axis, lo, hi)) {
+    if (sureInStrip(v.x[a], v.y[a], v.x[b], v.y[b], v.x[c], v.y[c], axis, lo, hi)) {
       state[t] = kSure;
       out.triangles.insert(out.triangles.end(), {v.gid[a], v.gid[b], v.gid[c]});
     }
   }
 
   // New fences: old ones whose right side is still open, and emitted-to-open edges.
-  SlabGroup g;
+  StripGroup g;
   g.axis = axis;
   g.lo = lo;
   g.hi = hi;
@@ -205,51 +205,51 @@ SlabGroup processSlab(SlabPoints&& v, const std::vector<std::uint64_t>& gid_fenc
 
 }  // namespace
 
-void SlabPoints::reserve(std::size_t n) {
+void StripPoints::reserve(std::size_t n) {
   gid.reserve(n);
   x.reserve(n);
   y.reserve(n);
   z.reserve(n);
 }
 
-void SlabPoints::push(index_t g, double px, double py, double pz) {
+void StripPoints::push(index_t g, double px, double py, double pz) {
   gid.push_back(g);
   x.push_back(px);
   y.push_back(py);
   z.push_back(pz);
 }
 
-SlabGroup processLeaf(SlabPoints&& points, int axis, double lo, double hi, Emitted& out,
-                      const SlabOptions& options) {
+StripGroup processLeaf(StripPoints&& points, int axis, double lo, double hi, Emitted& out,
+                      const StripOptions& options) {
   if (axis != 0 && axis != 1) throw Error("dw::mpi::processLeaf: axis must be 0 or 1");
-  if (!(lo < hi)) throw Error("dw::mpi::processLeaf: empty slab [lo, hi)");
+  if (!(lo < hi)) throw Error("dw::mpi::processLeaf: empty strip [lo, hi)");
   checkSorted(points, "dw::mpi::processLeaf");
   const std::vector<double>& u = axis == 0 ? points.x : points.y;
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (!std::isfinite(points.x[i]) || !std::isfinite(points.y[i]))
       throw Error("dw::mpi::processLeaf: point " + std::to_string(points.gid[i]) + " is not finite");
     if (!(u[i] >= lo && u[i] < hi))
-      throw Error("dw::mpi::processLeaf: point " + std::to_string(points.gid[i]) + " lies outside its slab");
+      throw Error("dw::mpi::processLeaf: point " + std::to_string(points.gid[i]) + " lies outside its strip");
   }
-  return processSlab(std::move(points), {}, axis, lo, hi, out, options);
+  return processStrip(std::move(points), {}, axis, lo, hi, out, options);
 }
 
-SlabGroup mergeSlabs(SlabGroup&& left, SlabGroup&& right, Emitted& out, const SlabOptions& options) {
-  if (left.axis != right.axis) throw Error("dw::mpi::mergeSlabs: the groups use different axes");
+StripGroup mergeStrips(StripGroup&& left, StripGroup&& right, Emitted& out, const StripOptions& options) {
+  if (left.axis != right.axis) throw Error("dw::mpi::mergeStrips: the groups use different axes");
   if (!(left.hi == right.lo))
-    throw Error("dw::mpi::mergeSlabs: the slabs are not adjacent (left ends at " + std::to_string(left.hi) +
+    throw Error("dw::mpi::mergeStrips: the strips are not adjacent (left ends at " + std::to_string(left.hi) +
                 ", right starts at " + std::to_string(right.lo) + ")");
-  checkSorted(left.band, "dw::mpi::mergeSlabs");
-  checkSorted(right.band, "dw::mpi::mergeSlabs");
-  SlabPoints v;
+  checkSorted(left.band, "dw::mpi::mergeStrips");
+  checkSorted(right.band, "dw::mpi::mergeStrips");
+  StripPoints v;
   v.reserve(left.band.size() + right.band.size());
   std::size_t i = 0, j = 0;
-  const SlabPoints &a = left.band, &b = right.band;
+  const StripPoints &a = left.band, &b = right.band;
   while (i < a.size() || j < b.size()) {
     const bool take_a = j == b.size() || (i < a.size() && a.gid[i] < b.gid[j]);
     if (i < a.size() && j < b.size() && a.gid[i] == b.gid[j])
-      throw Error("dw::mpi::mergeSlabs: point " + std::to_string(a.gid[i]) + " is in both groups");
-    const SlabPoints& s = take_a ? a : b;
+      throw Error("dw::mpi::mergeStrips: point " + std::to_string(a.gid[i]) + " is in both groups");
+    const StripPoints& s = take_a ? a : b;
     std::size_t& k = take_a ? i : j;
     v.push(s.gid[k], s.x[k], s.y[k], s.z[k]);
     ++k;
@@ -258,9 +258,9 @@ SlabGroup mergeSlabs(SlabGroup&& left, SlabGroup&& right, Emitted& out, const Sl
   fences.insert(fences.end(), right.fences.begin(), right.fences.end());
   const double lo = left.lo, hi = right.hi;
   const int axis = left.axis;
-  left = SlabGroup();
-  right = SlabGroup();
-  return processSlab(std::move(v), fences, axis, lo, hi, out, options);
+  left = StripGroup();
+  right = StripGroup();
+  return processStrip(std::move(v), fences, axis, lo, hi, out, options);
 }
 
 // Layout: magic, axis, lo, hi, n, nf, gid[n], x[n], y[n], z[n], fences[nf].
@@ -274,7 +274,7 @@ void put(std::vector<unsigned char>& b, const T* p, std::size_t count) {
 }
 }  // namespace
 
-std::vector<unsigned char> SlabGroup::serialize() const {
+std::vector<unsigned char> StripGroup::serialize() const {
   std::vector<unsigned char> b;
   const std::uint64_t n = band.size(), nf = fences.size();
   b.reserve(48 + n * 28 + nf * 8);
@@ -293,26 +293,26 @@ std::vector<unsigned char> SlabGroup::serialize() const {
   return b;
 }
 
-SlabGroup SlabGroup::deserialize(const unsigned char* bytes, std::size_t size) {
+StripGroup StripGroup::deserialize(const unsigned char* bytes, std::size_t size) {
   std::size_t at = 0;
   auto get = [&](void* p, std::size_t n) {
-    if (n > size - at) throw Error("dw::mpi: truncated slab group message");
+    if (n > size - at) throw Error("dw::mpi: truncated strip group message");
     if (n) std::memcpy(p, bytes + at, n);
     at += n;
   };
   std::uint32_t magic = 0;
   std::int32_t ax = 0;
   std::uint64_t n = 0, nf = 0;
-  SlabGroup g;
+  StripGroup g;
   get(&magic, 4);
-  if (magic != kMagic) throw Error("dw::mpi: corrupt slab group message");
+  if (magic != kMagic) throw Error("dw::mpi: corrupt strip group message");
   get(&ax, 4);
   get(&g.lo, 8);
   get(&g.hi, 8);
   get(&n, 8);
   get(&nf, 8);
   if (n > size / 28 || nf > size / 8 || 28 * n + 8 * nf != size - at)
-    throw Error("dw::mpi: slab group message has an inconsistent size");
+    throw Error("dw::mpi: strip group message has an inconsistent size");
   g.axis = ax;
   g.band.gid.resize(n);
   g.band.x.resize(n);

@@ -13,7 +13,7 @@
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/las/synthetic_lidar.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
-#include "pcl_delaunay_walk/mpi/slab_group.h"
+#include "pcl_delaunay_walk/mpi/strip_group.h"
 
 namespace {
 
@@ -52,18 +52,18 @@ std::vector<index_t> simulate(const std::vector<double>& x, const std::vector<do
   split[0] = -INFINITY;
   split[ranks] = INFINITY;
   for (int r = 1; r < ranks; ++r) split[r] = sorted[r * sorted.size() / ranks];
-  std::vector<dw::mpi::SlabGroup> groups;
+  std::vector<dw::mpi::StripGroup> groups;
   std::vector<index_t> all;
   for (int r = 0; r < ranks; ++r) {
-    dw::mpi::SlabPoints p;
+    dw::mpi::StripPoints p;
     for (std::size_t i = 0; i < x.size(); ++i)
       if (u[i] >= split[r] && u[i] < split[r + 1]) p.push(index_t(i), x[i], y[i], 0.0);
     dw::mpi::Emitted e;
-    // Equal splitters make an empty slab [s, s): the driver gives it an empty leaf too.
+    // Equal splitters make an empty strip [s, s): the driver gives it an empty leaf too.
     if (split[r] < split[r + 1]) {
       groups.push_back(dw::mpi::processLeaf(std::move(p), axis, split[r], split[r + 1], e));
     } else {
-      dw::mpi::SlabGroup g;
+      dw::mpi::StripGroup g;
       g.axis = axis;
       g.lo = split[r];
       g.hi = split[r + 1];
@@ -75,7 +75,7 @@ std::vector<index_t> simulate(const std::vector<double>& x, const std::vector<do
   for (int step = 1; step < ranks; step *= 2)
     for (int r = 0; r + step < ranks; r += 2 * step) {
       dw::mpi::Emitted e;
-      groups[r] = dw::mpi::mergeSlabs(std::move(groups[r]), std::move(groups[r + step]), e);
+      groups[r] = dw::mpi::mergeStrips(std::move(groups[r]), std::move(groups[r + step]), e);
       merged += e.band_points;
       all.insert(all.end(), e.triangles.begin(), e.triangles.end());
     }
@@ -100,7 +100,7 @@ void expectSameAsSequential(const std::vector<double>& x, const std::vector<doub
   }
 }
 
-TEST(SlabGroup, RandomPointsMatchSequential) {
+TEST(StripGroup, RandomPointsMatchSequential) {
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> d(-1000.0, 1000.0);
   std::vector<double> x(30000), y(30000);
@@ -111,7 +111,7 @@ TEST(SlabGroup, RandomPointsMatchSequential) {
   for (int ranks : {1, 2, 3, 4, 7}) expectSameAsSequential(x, y, ranks);
 }
 
-TEST(SlabGroup, IntegerGridWithTiesAndDuplicatesMatchesSequential) {
+TEST(StripGroup, IntegerGridWithTiesAndDuplicatesMatchesSequential) {
   // Every unit square of the grid is cocircular: only the perturbation decides; plus duplicates.
   std::mt19937_64 rng(3);
   std::uniform_int_distribution<int> d(0, 120);
@@ -123,7 +123,7 @@ TEST(SlabGroup, IntegerGridWithTiesAndDuplicatesMatchesSequential) {
   for (int ranks : {2, 4, 5}) expectSameAsSequential(x, y, ranks);
 }
 
-TEST(SlabGroup, SyntheticLidarMatchesSequential) {
+TEST(StripGroup, SyntheticLidarMatchesSequential) {
   dw::las::LidarGenOptions g;
   g.num_points = 200000;
   g.seed = 11;
@@ -135,7 +135,7 @@ TEST(SlabGroup, SyntheticLidarMatchesSequential) {
   for (int ranks : {2, 4}) expectSameAsSequential(x, y, ranks);
 }
 
-TEST(SlabGroup, RealAirborneTileMatchesSequential) {
+TEST(StripGroup, RealAirborneTileMatchesSequential) {
   const std::string path = std::string(DW_SHARED_DATA_DIR) + "/airborne/autzen_trim.las";
   if (!std::ifstream(path).good()) GTEST_SKIP() << "shared data absent: " << path;
   const dw::las::LasCloud las = dw::las::readLasFile(path);
@@ -147,9 +147,9 @@ TEST(SlabGroup, RealAirborneTileMatchesSequential) {
   expectSameAsSequential(x, y, 4);
 }
 
-TEST(SlabGroup, TinyAndCollinearInputsMatchSequential) {
-  // Collinear everywhere (no triangle), collinear slabs inside a non-collinear set, fewer points than
-  // ranks (empty and one-point slabs).
+TEST(StripGroup, TinyAndCollinearInputsMatchSequential) {
+  // Collinear everywhere (no triangle), collinear strips inside a non-collinear set, fewer points than
+  // ranks (empty and one-point strips).
   std::vector<double> x, y;
   for (int i = 0; i < 40; ++i) {
     x.push_back(i);
@@ -163,8 +163,8 @@ TEST(SlabGroup, TinyAndCollinearInputsMatchSequential) {
   for (int ranks : {2, 4, 7}) expectSameAsSequential(sx, sy, ranks);
 }
 
-TEST(SlabGroup, SerializationRoundTrips) {
-  dw::mpi::SlabGroup g;
+TEST(StripGroup, SerializationRoundTrips) {
+  dw::mpi::StripGroup g;
   g.axis = 1;
   g.lo = -2.5;
   g.hi = 7.0;
@@ -172,33 +172,33 @@ TEST(SlabGroup, SerializationRoundTrips) {
   g.band.push(9, 4.0, 5.0, 6.0);
   g.fences = {(std::uint64_t{3} << 32) | 9};
   const std::vector<unsigned char> b = g.serialize();
-  const dw::mpi::SlabGroup h = dw::mpi::SlabGroup::deserialize(b.data(), b.size());
+  const dw::mpi::StripGroup h = dw::mpi::StripGroup::deserialize(b.data(), b.size());
   EXPECT_EQ(h.axis, 1);
   EXPECT_EQ(h.lo, -2.5);
   EXPECT_EQ(h.hi, 7.0);
   EXPECT_EQ(h.band.gid, g.band.gid);
   EXPECT_EQ(h.band.z, g.band.z);
   EXPECT_EQ(h.fences, g.fences);
-  EXPECT_THROW(dw::mpi::SlabGroup::deserialize(b.data(), b.size() - 1), dw::Error);
+  EXPECT_THROW(dw::mpi::StripGroup::deserialize(b.data(), b.size() - 1), dw::Error);
   std::vector<unsigned char> bad(b);
   bad[0] ^= 1;
-  EXPECT_THROW(dw::mpi::SlabGroup::deserialize(bad.data(), bad.size()), dw::Error);
+  EXPECT_THROW(dw::mpi::StripGroup::deserialize(bad.data(), bad.size()), dw::Error);
 }
 
-TEST(SlabGroup, BadInputThrows) {
+TEST(StripGroup, BadInputThrows) {
   dw::mpi::Emitted e;
-  dw::mpi::SlabPoints p;
+  dw::mpi::StripPoints p;
   p.push(5, 0, 0, 0);
   p.push(4, 1, 0, 0);
-  EXPECT_THROW(dw::mpi::processLeaf(dw::mpi::SlabPoints(p), 0, -1, 2, e), dw::Error);  // unsorted
-  dw::mpi::SlabPoints q;
+  EXPECT_THROW(dw::mpi::processLeaf(dw::mpi::StripPoints(p), 0, -1, 2, e), dw::Error);  // unsorted
+  dw::mpi::StripPoints q;
   q.push(1, 0, 0, 0);
   q.push(2, 5, 0, 0);
-  EXPECT_THROW(dw::mpi::processLeaf(std::move(q), 0, -1, 2, e), dw::Error);  // outside slab
-  dw::mpi::SlabGroup a, b;
+  EXPECT_THROW(dw::mpi::processLeaf(std::move(q), 0, -1, 2, e), dw::Error);  // outside strip
+  dw::mpi::StripGroup a, b;
   a.hi = 1;
   b.lo = 2;
-  EXPECT_THROW(dw::mpi::mergeSlabs(std::move(a), std::move(b), e), dw::Error);  // not adjacent
+  EXPECT_THROW(dw::mpi::mergeStrips(std::move(a), std::move(b), e), dw::Error);  // not adjacent
 }
 
 }  // namespace
