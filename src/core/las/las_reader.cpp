@@ -190,21 +190,26 @@ std::size_t LasReader::readLaz(std::vector<LasRecord>& out, std::size_t n) {
 
 namespace {
 
+/// Keeps record r in the cloud unless the class filter drops it.
+inline void appendRecord(const LasRecord& r, const LasReadOptions& options, LasCloud& cloud) {
+  if (options.classification >= 0 && r.classification != options.classification) return;
+  cloud.X.push_back(r.X);
+  cloud.Y.push_back(r.Y);
+  cloud.Z.push_back(r.Z);
+  if (options.keep_attributes) {
+    cloud.classification.push_back(r.classification);
+    cloud.intensity.push_back(r.intensity);
+    cloud.return_number.push_back(r.return_number);
+  }
+}
+
 /// Appends the records of one decoded chunk that pass the class filter.
 void appendRecords(const unsigned char* records, std::size_t count, const LasHeader& h,
                    const LasReadOptions& options, LasCloud& cloud) {
   LasRecord r;
   for (std::size_t i = 0; i < count; ++i) {
     decodeRecord(records + i * h.record_length, h.point_format, r);
-    if (options.classification >= 0 && r.classification != options.classification) continue;
-    cloud.X.push_back(r.X);
-    cloud.Y.push_back(r.Y);
-    cloud.Z.push_back(r.Z);
-    if (options.keep_attributes) {
-      cloud.classification.push_back(r.classification);
-      cloud.intensity.push_back(r.intensity);
-      cloud.return_number.push_back(r.return_number);
-    }
+    appendRecord(r, options, cloud);
   }
 }
 
@@ -280,15 +285,7 @@ LasCloud readLasFile(const std::string& path, const LasReadOptions& options) {
   std::uint64_t done = 0;
   while (reader.read(chunk, 1 << 16) > 0) {
     for (const LasRecord& r : chunk) {
-      if (options.classification >= 0 && r.classification != options.classification) continue;
-      cloud.X.push_back(r.X);
-      cloud.Y.push_back(r.Y);
-      cloud.Z.push_back(r.Z);
-      if (options.keep_attributes) {
-        cloud.classification.push_back(r.classification);
-        cloud.intensity.push_back(r.intensity);
-        cloud.return_number.push_back(r.return_number);
-      }
+      appendRecord(r, options, cloud);
     }
     done += chunk.size();
     if (options.progress) options.progress(total ? double(done) / double(total) : 1.0, options.progress_user);
