@@ -9,6 +9,7 @@
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
 #include "core/util/space_filling_curve.h"
 #include "core/geometry/affine_span.h"
+#include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 
 namespace dw {
 
@@ -56,6 +57,61 @@ EdgeList chainAlongLine(const std::vector<Vec3f>& p, const double dir[3]) {
   return e;
 }
 
+/// Delaunay edges of a (nearly) planar vertex set by the project's exact 2D engine (dw::tin), on the
+/// points projected onto the plane's orthonormal basis (u then v in `basis`). Off the plane every
+/// vertex lies at the same distance within the dimension test's tolerance, so a query's in-plane
+/// nearest vertex is its nearest (docs/architecture.md, "Building the graph"). Distinct points whose
+/// projections round to one 2D position are linked to each other and share the representative's
+/// neighbours, so the walk can step between them. Throws dw::Error where the 2D engine refuses the
+/// projected coordinates (outside its exact range).
+EdgeList planarDelaunayEdges(const std::vector<Vec3f>& p, const double basis[6], unsigned num_threads) {
+  std::vector<double> u(p.size()), v(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double x = p[i].x, y = p[i].y, z = p[i].z;
+    u[i] = x * basis[0] + y * basis[1] + z * basis[2];
+    v[i] = x * basis[3] + y * basis[4] + z * basis[5];
+  }
+  tin::TinOptions to;
+  to.num_threads = num_threads;
+  const tin::TinResult t = tin::triangulate(std::move(u), std::move(v), to);
+  if (t.degenerate) throw Error("pcl_delaunay_walk: planar set without a 2D triangle");
+  EdgeList e;
+  e.reserve(t.triangles.size() + 2 * t.duplicates.size());
+  for (std::size_t k = 0; k + 2 < t.triangles.size(); k += 3) {
+    const index_t* tri = &t.triangles[k];
+    e.emplace_back(tri[0], tri[1]);
+    e.emplace_back(tri[1], tri[2]);
+    e.emplace_back(tri[2], tri[0]);
+  }
+  if (!t.duplicates.empty()) {
+    std::vector<std::vector<index_t>> copies(p.size());
+    for (const auto& d : t.duplicates) copies[d.second].push_back(d.first);
+    const std::size_t triangle_edges = e.size();
+    for (std::size_t k = 0; k < triangle_edges; ++k)
+      for (int side = 0; side < 2; ++side) {
+        const index_t rep = side ? e[k].second : e[k].first, other = side ? e[k].first : e[k].second;
+        for (index_t c : copies[rep]) e.emplace_back(c, other);
+      }
+    for (const auto& d : t.duplicates) e.emplace_back(d.first, d.second);
+    for (const auto& group : copies)
+      for (std::size_t a = 0; a < group.size(); ++a)
+        for (std::size_t b = a + 1; b < group.size(); ++b) e.emplace_back(group[a], group[b]);
+  }
+  return e;
+}
+
+/// The planar graph by the 2D engine (Qhull when the caller chose it), or by Qhull where the engine
+/// refuses the projection.
+EdgeList planarEdges(const std::vector<Vec3f>& p, const double basis[6], const BuildOptions& options) {
+  if (options.builder == BuilderType::Qhull) return qhullDelaunayEdges(p, 2, basis);
+  try {
+    return planarDelaunayEdges(p, basis, options.num_threads);
+  } catch (const Error&) {
+    if (!haveQhullBuilder()) throw;
+    return qhullDelaunayEdges(p, 2, basis);
+  }
+}
+
 /// The graph's edges by the vertex set's affine dimension: the complete graph of tiny sets, a chain
 /// on a line, the planar Delaunay graph on a plane, the 3D one otherwise. Sets `distinct` when every
 /// edge is listed once.
@@ -68,7 +124,7 @@ EdgeList delaunayEdges(DelaunayGraph& g, const BuildOptions& options, bool& dist
   if (g.dimension == 1) return chainAlongLine(g.points, basis);
   if (g.dimension == 2) {
     report(options, "delaunay-2d", 0.0);
-    return qhullDelaunayEdges(g.points, 2, basis);
+    return planarEdges(g.points, basis, options);
   }
   BuilderType b = options.builder;
   if (b == BuilderType::Auto) b = haveIncrementalBuilder() ? BuilderType::Incremental : BuilderType::Qhull;
@@ -85,7 +141,7 @@ EdgeList delaunayEdges(DelaunayGraph& g, const BuildOptions& options, bool& dist
     if (toleranceAffineDimension(g.points, basis, 1e-6) != 2) throw;
     g.dimension = 2;
     distinct = false;
-    return qhullDelaunayEdges(g.points, 2, basis);
+    return planarEdges(g.points, basis, options);
   }
 }
 

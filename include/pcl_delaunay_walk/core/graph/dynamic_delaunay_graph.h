@@ -31,7 +31,7 @@ class Triangulation3D;
 ///   choice follows the ids) and the walk, kNN and radius search are exact on either.
 /// - While the live points do not span 3D (fewer than 4, coplanar, collinear) there is no
 ///   triangulation and graph() falls back to buildDelaunayGraph on the live points, which handles
-///   those sets exactly (planar sets need Qhull there, like everywhere else); the triangulation is
+///   those sets exactly (planar sets by the exact 2D engine of dw::tin); the triangulation is
 ///   built as soon as the points span 3D again.
 /// - Coordinates are stored as float relative to a double origin (docs/architecture.md, "The walk
 ///   graph"). Choose an origin near the data: float keeps about 7 significant digits of the offset from it.
