@@ -19,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/builder3d/insertion_order.h"
 #include "core/builder3d/triangulation_3d.h"
 #include "core/geometry/rounded_circumsphere.h"
 #include "core/graph/cell_grid.h"
@@ -38,27 +39,14 @@ inline double since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-inline std::uint64_t splitmix64(std::uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
-
 /// Biased randomised insertion order of ids that are already in Morton order (global vertex ids are):
-/// rounds of doubling size chosen by a hash of the id, ascending ids inside a round. The order changes
-/// only the speed, never the triangulation (it is unique under the perturbation).
+/// the single-process builders' doubling rounds (BrioRounds), ascending ids inside a round, since the
+/// ids are on the curve already. The order changes only the speed, never the triangulation (it is
+/// unique under the perturbation).
 inline std::vector<index_t> brio(std::vector<index_t> ids) {
-  unsigned rounds = 1;
-  while (rounds < 15 && (ids.size() >> rounds) > 512) ++rounds;
-  auto roundOf = [rounds](index_t i) {
-    const std::uint64_t h = splitmix64(i);
-    unsigned tz = 0;
-    while (tz + 1 < rounds && ((h >> tz) & 1u) == 0) ++tz;
-    return rounds - 1 - tz;
-  };
+  const builder3d::BrioRounds rounds(ids.size(), builder3d::BrioGrowth::kDoubling);
   std::sort(ids.begin(), ids.end(), [&](index_t a, index_t b) {
-    const unsigned ra = roundOf(a), rb = roundOf(b);
+    const unsigned ra = rounds.round(a), rb = rounds.round(b);
     return ra != rb ? ra < rb : a < b;
   });
   return ids;

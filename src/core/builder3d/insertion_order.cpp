@@ -16,13 +16,6 @@ namespace dw {
 namespace builder3d {
 namespace {
 
-std::uint64_t splitmix64(std::uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
-
 // A point's sort key (its BRIO round in the top bits, then its Morton code) and its id.
 struct KeyId {
   std::uint64_t key;
@@ -129,16 +122,10 @@ std::vector<index_t> brioOrderInRounds(const std::vector<Vec3f>& points, std::ve
   // points: insertion -7 % on one thread and -8 % on two; the dragon -7 % and -11 % (medians of 5-8
   // alternated runs; growth by 8 was faster on uniform points, slower on the dragon, whose cavity
   // work rose 8 %).
-  const unsigned growth_bits = static_cast<unsigned>(growth);  // each round 2^bits - 1 times all before it
-  unsigned rounds = 1;
-  while (rounds < 15 && (n >> (growth_bits * rounds)) > 512) ++rounds;
-  auto roundOf = [&](index_t i) {
-    // Trailing zero bits of a hash, in groups of growth_bits, at most rounds - 1 groups (a count, not
-    // a loop: how far a loop runs is a coin flip to the branch predictor).
-    const std::uint64_t h =
-        splitmix64(i ^ (seed * 0xD1B54A32D192ED03ull)) | (std::uint64_t(1) << (growth_bits * (rounds - 1)));
-    return rounds - 1 - static_cast<unsigned>(__builtin_ctzll(h)) / growth_bits;
-  };
+  // Each round 2^bits - 1 times all before it.
+  const BrioRounds brio_rounds(n, growth, seed);
+  const unsigned rounds = brio_rounds.count;
+  auto roundOf = [&](index_t i) { return brio_rounds.round(i); };
 
   // One key per point: its round above its Morton code; ids break ties, so the order is unique. The
   // keys are written straight to their round's part (counted first, per worker block, so that the
