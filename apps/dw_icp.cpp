@@ -322,6 +322,22 @@ void readInputs(const std::vector<std::string>& files, const Options& o, Cloud::
 }
 
 /// Registers with the Delaunay-walk ICP, timing the graph apart from align(), and prints its result
+
+/// Runs align() and getFitnessScore(), timing each, and records the result in r.
+template <class Icp>
+void alignAndScore(Icp& icp, Report& r) {
+  Cloud out;
+  const auto t_align = Clock::now();
+  icp.align(out);
+  r.align_s = since(t_align);
+  r.transform = icp.getFinalTransformation();
+  r.iterations = icp.nr_iterations_;
+  r.converged = icp.hasConverged();
+  const auto t_fit = Clock::now();
+  r.fitness = icp.getFitnessScore();
+  r.fitness_s = since(t_fit);
+}
+
 /// and per-iteration walk statistics.
 Report runWalk(const Cloud::Ptr& source, const Cloud::Ptr& target, const Options& o) {
   Report w;
@@ -342,16 +358,7 @@ Report runWalk(const Cloud::Ptr& source, const Cloud::Ptr& target, const Options
   if (!o.save_graph.empty()) icp.getSearchMethodWalk()->saveGraph(o.save_graph);
   icp.setInputSource(source);
   icp.setInputTarget(target);
-  Cloud out;
-  const auto t_align = Clock::now();
-  icp.align(out);
-  w.align_s = since(t_align);
-  w.transform = icp.getFinalTransformation();
-  w.iterations = icp.nr_iterations_;
-  w.converged = icp.hasConverged();
-  const auto t_fit = Clock::now();
-  w.fitness = icp.getFitnessScore();
-  w.fitness_s = since(t_fit);
+  alignAndScore(icp, w);
   w.te_s = te->total();
   for (const auto& s : icp.getIterationStatistics()) w.nn_s += s.nn_seconds;
   reportWalk(icp, w, o);
@@ -379,16 +386,7 @@ Report runStock(const Cloud::Ptr& source, const Cloud::Ptr& target, const Option
   }
   stock.setInputSource(source);
   stock.setInputTarget(target);
-  Cloud out2;
-  const auto t_align2 = Clock::now();
-  stock.align(out2);
-  k.align_s = since(t_align2);
-  k.transform = stock.getFinalTransformation();
-  k.iterations = stock.nr_iterations_;
-  k.converged = stock.hasConverged();
-  const auto t_fit2 = Clock::now();
-  k.fitness = stock.getFitnessScore();
-  k.fitness_s = since(t_fit2);
+  alignAndScore(stock, k);
   k.nn_s = ce2->seconds;
   k.te_s = te2->total();
   return k;
