@@ -35,7 +35,7 @@ TEST_TIMEOUT=${SANITIZE_TEST_TIMEOUT:-900}
 BUDGET=${SANITIZE_CTEST_BUDGET:-2400}
 export CCACHE_BASEDIR="$PWD"
 export CCACHE_NOHASHDIR=1
-SUPP_DIR="$PWD/test/robustness/sanitizer"
+SUPP_DIR="$PWD/test/core/robustness/sanitizer"
 ASAN_DIR=${ASAN_BUILD_DIR:-build-asan}
 TSAN_DIR=${TSAN_BUILD_DIR:-build-tsan}
 status=0
@@ -112,9 +112,9 @@ run_asan() {
   # (CospericalGridAndQuantisedTies) and 179 s instead of 5 s (IntegerGrid), half of this stage. They
   # run with that one check off, ASan's other checks and UBSan on; every other test keeps it, and
   # the same kernel code runs under it in the other parallel-insertion tests.
-  local uar_slow='^builder3d[.](PartitionedInsertion[.]CospericalGridAndQuantisedTies|BlockParallel[.]IntegerGrid)$'
+  local uar_slow='^core[.]builder3d[.](PartitionedInsertion[.]CospericalGridAndQuantisedTies|BlockParallel[.]IntegerGrid)$'
   timeout "$BUDGET" ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS" --timeout "$TEST_TIMEOUT" \
-      -E "$EXCLUDE|^mpi_run[.]|$uar_slow" ${SANITIZE_CTEST_ARGS:-}
+      -E "$EXCLUDE|^mpi[.]run[.]|$uar_slow" ${SANITIZE_CTEST_ARGS:-}
   local rc=$?
   ASAN_OPTIONS="${ASAN_OPTIONS/detect_stack_use_after_return=1/detect_stack_use_after_return=0}" \
     timeout "$BUDGET" ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS" --timeout "$TEST_TIMEOUT" \
@@ -124,7 +124,7 @@ run_asan() {
   # at exit in every rank. Memory errors and UB in the ranks are still fatal.
   ASAN_OPTIONS="$ASAN_OPTIONS:detect_leaks=0" \
     timeout "$BUDGET" ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS" --timeout "$TEST_TIMEOUT" \
-      -R "^mpi_run[.]" -E "$EXCLUDE" ${SANITIZE_CTEST_ARGS:-} || rc=1
+      -R "^mpi[.]run[.]" -E "$EXCLUDE" ${SANITIZE_CTEST_ARGS:-} || rc=1
   echo "== ASan+UBSan: ctest took $((SECONDS - t1)) s, total $((SECONDS - t0)) s (exit $rc)"
   [ $build_rc = 0 ] || rc=1
   return $rc

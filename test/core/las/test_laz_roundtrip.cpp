@@ -82,7 +82,7 @@ std::vector<std::uint8_t> randomRecords(unsigned format, unsigned extra, std::si
     if (format >= 6 && rng() % 13 == 0) p[15] = std::uint8_t((p[15] & 0xCF) | ((rng() % 4) << 4));  // channel
     if (format >= 6 && rng() % 17 == 0) p[15] ^= 0xC0;  // scan direction, edge of flight line
     if (format <= 5 && rng() % 17 == 0) p[14] ^= 0xC0;
-    std::memcpy(p + len - extra, ex.data(), extra);
+    if (extra) std::memcpy(p + len - extra, ex.data(), extra);
   }
   return out;
 }

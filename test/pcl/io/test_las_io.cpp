@@ -88,9 +88,33 @@ TEST(LasIo, BadFilesThrow) {
     EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
   }
   std::remove(path.c_str());
+  // A truncated LAZ file: a clear LasError, never a partial cloud.
   const std::string laz = std::string(DW_SHARED_DATA_DIR) + "/airborne/las_with_several_extra_byte_bloc.laz";
   if (std::ifstream(laz).good()) {
-    EXPECT_THROW(pcl::io::loadLASFile(laz, c), dw::las::LasError);
+    const std::string cut = std::string(DW_BINARY_DIR) + "/las_io_truncated.laz";
+    {
+      std::ifstream f(laz, std::ios::binary);
+      std::string b((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+      std::ofstream o(cut, std::ios::binary | std::ios::trunc);
+      o.write(b.data(), std::streamsize(b.size() / 2));
+    }
+    EXPECT_THROW(pcl::io::loadLASFile(cut, c), dw::las::LasError);
+    std::remove(cut.c_str());
+  }
+}
+
+TEST(LasIo, LazLoadsAsItsLasTwin) {
+  const std::string base = std::string(DW_SHARED_DATA_DIR) + "/airborne/las_with_several_extra_byte_bloc";
+  if (!std::ifstream(base + ".laz").good()) GTEST_SKIP() << base << ".laz absent";
+  pcl::PointCloud<pcl::PointXYZ> a, b;
+  pcl::io::loadLASFile(base + ".laz", a);
+  pcl::io::loadLASFile(base + ".las", b);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_GT(a.size(), 0u);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(a[i].x, b[i].x) << i;
+    ASSERT_EQ(a[i].y, b[i].y) << i;
+    ASSERT_EQ(a[i].z, b[i].z) << i;
   }
 }
 
