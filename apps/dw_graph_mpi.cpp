@@ -13,9 +13,9 @@
 #include <cstdlib>
 #include <string>
 
+#include "mpi/fault_injection.h"
 #include "pcl_delaunay_walk/core/graph/graph_io.h"
 #include "pcl_delaunay_walk/mpi/distributed_graph.h"
-#include "mpi/fault_injection.h"
 #include "pcl_delaunay_walk/mpi/las_input_set.h"
 
 namespace {

@@ -3,10 +3,10 @@
 /// Core-only app: links pcl_delaunay_walk_core, not PCL.
 #include <algorithm>
 #include <chrono>
-#include <functional>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <string>
 
 #include "app_args.h"
@@ -17,12 +17,13 @@
 namespace {
 
 void usage() {
-  std::fprintf(stderr,
-               "usage: dw_lidar_gen -n POINTS -o out.las|out.laz [--laz] [--format F] [--density PULSES_PER_M2]\n"
-               "                    [--swath M] [--seed S]\n"
-               "  Writes a synthetic airborne LiDAR tile (LAS 1.2 format 1; LAS 1.4 format 6 beyond 2^32).\n"
-               "  .laz or --laz: LASzip-compressed. --format F: point format 0-3 or 6-8 instead.\n"
-               "  POINTS accepts suffixes k and M (e.g. 21M).\n");
+  std::fprintf(
+      stderr,
+      "usage: dw_lidar_gen -n POINTS -o out.las|out.laz [--laz] [--format F] [--density PULSES_PER_M2]\n"
+      "                    [--swath M] [--seed S]\n"
+      "  Writes a synthetic airborne LiDAR tile (LAS 1.2 format 1; LAS 1.4 format 6 beyond 2^32).\n"
+      "  .laz or --laz: LASzip-compressed. --format F: point format 0-3 or 6-8 instead.\n"
+      "  POINTS accepts suffixes k and M (e.g. 21M).\n");
 }
 
 bool endsWith(const std::string& s, const std::string& tail) {

@@ -14,10 +14,10 @@
 #include <cstdlib>
 #include <string>
 
+#include "mpi/fault_injection.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/mpi/distributed_tin.h"
-#include "mpi/fault_injection.h"
 #include "pcl_delaunay_walk/mpi/las_input_set.h"
 
 namespace {

@@ -239,7 +239,8 @@ class IcpScene {
     const float q[3] = {x, y, z};
     dw::WalkNeighbour nn;
     dw::CallerMetricSearchStats qs;
-    if (!icp_.targetSearch().getCallerMetricSearch()->nearest(q, dw::StartStrategy::KdAnn, dw::kInvalidIndex, nn, &qs))
+    if (!icp_.targetSearch().getCallerMetricSearch()->nearest(q, dw::StartStrategy::KdAnn, dw::kInvalidIndex,
+                                                              nn, &qs))
       return;
     pickTargetVertex(qs.nn_vertex);
     std::cout << "target point " << nn.index << ": vertex " << qs.nn_vertex << " with "
@@ -391,8 +392,8 @@ class IcpScene {
     const auto& p = icp_.source()[static_cast<std::size_t>(walk_source_)];
     const dw::Vec3f ql = g.toLocal(p.x, p.y, p.z);
     const dw::index_t hint = icp_.hintsUsed()[static_cast<std::size_t>(walk_source_)];
-    const dw::index_t start =
-        icp_.targetSearch().getCallerMetricSearch()->neighbourSearch().startVertex(ql, icp_.startStrategy(), hint);
+    const dw::index_t start = icp_.targetSearch().getCallerMetricSearch()->neighbourSearch().startVertex(
+        ql, icp_.startStrategy(), hint);
     const auto path = dw_viewer::walkPath(g, ql, start);
     dw_viewer::Segments seg = dw_viewer::pathSegments(g, icp_.target(), path);
     const auto& end = dw_viewer::vertexPoint(g, icp_.target(), path.back());

@@ -24,11 +24,11 @@
 #include <vector>
 
 #include "core/builder3d/block_parallel_builder.h"
-#include "core/builder3d/triangulation_3d.h"
 #include "core/builder3d/insertion_order.h"
-#include "pcl_delaunay_walk/core/graph/graph_builder.h"
+#include "core/builder3d/triangulation_3d.h"
 #include "core/util/process_memory.h"
 #include "core/util/space_filling_curve.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
 
 #ifdef DW_HAVE_CGAL
 #include <CGAL/Delaunay_triangulation_3.h>

@@ -20,8 +20,8 @@
 #include <tuple>
 #include <vector>
 
-#include "core/builder3d/triangulation_3d.h"
 #include "core/builder3d/insertion_order.h"
+#include "core/builder3d/triangulation_3d.h"
 #include "pcl_delaunay_walk/core/graph/dynamic_delaunay_graph.h"
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/core/las/synthetic_lidar.h"

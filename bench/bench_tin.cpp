@@ -18,9 +18,9 @@
 #include <thread>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/las/synthetic_lidar.h"
-#include "pcl_delaunay_walk/core/geometry/predicates_2d.h"
 #include "core/util/process_memory.h"
+#include "pcl_delaunay_walk/core/geometry/predicates_2d.h"
+#include "pcl_delaunay_walk/core/las/synthetic_lidar.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 
 #ifdef DW_HAVE_CGAL

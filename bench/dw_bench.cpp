@@ -91,7 +91,8 @@ void usage() {
          "--shard K/N: only rotations K, K+N, K+2N, ... (0 <= K < N) of the set, so that N processes\n"
          "           can share one grid (bench/run_grid.sh); round-robin spreads a cut-off run over the "
          "grid\n"
-         "--only-rotations: only these rotations of the set (labels as in icp.csv; tools/device/grid_resume.py)\n"
+         "--only-rotations: only these rotations of the set (labels as in icp.csv; "
+         "tools/device/grid_resume.py)\n"
          "--quick: small data sets, one rotation, 1 repeat, acceptance on dragon-100k (a few minutes)\n";
 }
 

@@ -23,13 +23,13 @@
 #include <vector>
 
 #include "app_args.h"
-#include "core/builder3d/triangulation_3d.h"
 #include "core/builder3d/insertion_order.h"
-#include "pcl_delaunay_walk/core/graph/delaunay_graph.h"
-#include "pcl_delaunay_walk/core/util/point_file.h"
+#include "core/builder3d/triangulation_3d.h"
 #include "core/util/process_memory.h"
 #include "core/util/space_filling_curve.h"
+#include "pcl_delaunay_walk/core/graph/delaunay_graph.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
+#include "pcl_delaunay_walk/core/util/point_file.h"
 
 namespace {
 

@@ -19,9 +19,9 @@
 #include <vector>
 
 #include "app_args.h"
+#include "core/util/process_memory.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/las/synthetic_lidar.h"
-#include "core/util/process_memory.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 

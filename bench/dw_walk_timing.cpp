@@ -88,7 +88,8 @@ std::vector<float> movedQueries(const std::vector<double>& xyz, double angle, do
   for (std::size_t i = 0; i < n; ++i) {
     const double p[3] = {xyz[3 * i] - c[0], xyz[3 * i + 1] - c[1], xyz[3 * i + 2] - c[2]};
     const double d = ax[0] * p[0] + ax[1] * p[1] + ax[2] * p[2];
-    const double x[3] = {ax[1] * p[2] - ax[2] * p[1], ax[2] * p[0] - ax[0] * p[2], ax[0] * p[1] - ax[1] * p[0]};
+    const double x[3] = {ax[1] * p[2] - ax[2] * p[1], ax[2] * p[0] - ax[0] * p[2],
+                         ax[0] * p[1] - ax[1] * p[0]};
     for (int k = 0; k < 3; ++k)
       q[3 * i + k] = static_cast<float>(c[k] + p[k] * cs + x[k] * sn + ax[k] * d * (1 - cs) + shift);
   }
@@ -122,7 +123,8 @@ int main(int argc, char** argv) {
     dw::BuildOptions bo;
     bo.num_threads = o.threads;
     const auto b0 = std::chrono::steady_clock::now();
-    auto g = std::make_shared<dw::DelaunayGraph>(dw::buildDelaunayGraph(dw::PointView::fromDouble(xyz.data(), n), bo));
+    auto g = std::make_shared<dw::DelaunayGraph>(
+        dw::buildDelaunayGraph(dw::PointView::fromDouble(xyz.data(), n), bo));
     const auto b1 = std::chrono::steady_clock::now();
     const dw::NeighbourSearch s(g);
     std::printf("points %zu  vertices %zu  build_s %.3f\n", n, g->numVertices(),

@@ -10,8 +10,8 @@
 #include <string>
 
 #include "fuzz_common.h"
-#include "pcl_delaunay_walk/core/util/point_file.h"
 #include "pcl_delaunay_walk/core/graph/types.h"
+#include "pcl_delaunay_walk/core/util/point_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;

@@ -18,8 +18,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/graph/delaunay_graph.h"
 #include "colour_map.h"
+#include "pcl_delaunay_walk/core/graph/delaunay_graph.h"
 
 namespace dw_viewer {
 

@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
-#include "pcl_delaunay_walk/core/search/start_strategy.h"
 #include "pcl_delaunay_walk/core/graph/types.h"
+#include "pcl_delaunay_walk/core/search/start_strategy.h"
 
 namespace dw_viewer {
 

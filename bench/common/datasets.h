@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/util/point_file.h"
 #include "pcl_delaunay_walk/core/graph/types.h"
+#include "pcl_delaunay_walk/core/util/point_file.h"
 
 namespace dwb {
 

@@ -27,11 +27,11 @@ static_assert(NANOFLANN_VERSION >= 0x140,
               "NanoflannNn relies on the constructor building the tree (nanoflann 1.4)");
 #endif
 
+#include "core/util/space_filling_curve.h"
 #include "datasets.h"
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/core/search/neighbour_search.h"
 #include "pcl_delaunay_walk/core/search/query_order.h"
-#include "core/util/space_filling_curve.h"
 #include "worker_pool.h"
 
 namespace dwb {

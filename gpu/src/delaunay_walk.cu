@@ -101,11 +101,11 @@ __global__ void __launch_bounds__(kBlock)
   }
 }
 
-/// Exact kNN / bounded radius by best-first expansion from the NN (docs/architecture.md, "Why the searches are exact"), one thread per query.
-/// State is bounded without a visited set: F (expanded vertices) and C (candidates, sorted descending
-/// so the nearest pops from the back) each hold at most CAP vertices. A candidate is dropped only when
-/// at least k inputs are already known to be nearer, so it can never be one of the k; one dropped and
-/// met again is simply reconsidered.
+/// Exact kNN / bounded radius by best-first expansion from the NN (docs/architecture.md, "Why the searches
+/// are exact"), one thread per query. State is bounded without a visited set: F (expanded vertices) and C
+/// (candidates, sorted descending so the nearest pops from the back) each hold at most CAP vertices. A
+/// candidate is dropped only when at least k inputs are already known to be nearer, so it can never be one of
+/// the k; one dropped and met again is simply reconsidered.
 template <int CAP>
 __global__ void __launch_bounds__(128)
     expandKernel(DeviceGraphView g, const float4* __restrict__ queries, std::uint32_t n,

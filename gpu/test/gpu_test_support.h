@@ -14,16 +14,16 @@
 #include <string>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/util/point_file.h"
 #include "pcl_delaunay_walk/core/graph/types.h"
+#include "pcl_delaunay_walk/core/util/point_file.h"
 #include "pcl_delaunay_walk/gpu/cuda_check.h"
 
 namespace dwgpu_test {
 
 /// Skips the current test where no CUDA device exists (CI has none; the device machine has one).
-#define DW_REQUIRE_CUDA_DEVICE()                                                                     \
-  do {                                                                                               \
-    if (dw::gpu::cudaDeviceCount() == 0)                                                            \
+#define DW_REQUIRE_CUDA_DEVICE()                                                                   \
+  do {                                                                                             \
+    if (dw::gpu::cudaDeviceCount() == 0)                                                           \
       GTEST_SKIP() << "no CUDA device: GPU tests run on a machine with one (tools/device/run.sh)"; \
   } while (0)
 

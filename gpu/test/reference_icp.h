@@ -22,8 +22,8 @@ struct ReferenceIcpResult {
 };
 
 inline ReferenceIcpResult referenceIcp(const dw::NeighbourSearch& target,
-                                       const std::vector<double>& source_xyz,
-                                       const dw::gpu::IcpParameters& p, const Eigen::Matrix4d& guess) {
+                                       const std::vector<double>& source_xyz, const dw::gpu::IcpParameters& p,
+                                       const Eigen::Matrix4d& guess) {
   using dw::gpu::ConvergenceState;
   const dw::DelaunayGraph& g = target.graph();
   const Eigen::Vector3d origin(g.origin[0], g.origin[1], g.origin[2]);

@@ -13,12 +13,12 @@
 
 namespace {
 
-using dwgpu_test::fromEigen;
-using dwgpu_test::toEigen;
 using dw::gpu::ConvergenceState;
 using dw::gpu::DelaunayWalk;
 using dw::gpu::IcpParameters;
 using dw::gpu::IterativeClosestPoint;
+using dwgpu_test::fromEigen;
+using dwgpu_test::toEigen;
 
 struct Target {
   std::shared_ptr<const dw::DelaunayGraph> graph;
@@ -217,7 +217,7 @@ TEST_F(GpuIcp, BadInputThrows) {
   const auto s = dwgpu_test::randomCloud(100, 4);
   icp.addSource(dw::PointView::fromDouble(s.data(), 100));
   icp.addSource(dw::PointView::fromDouble(s.data(), 100));
-  EXPECT_THROW(icp.align(), dw::Error);                                   // two sources: use alignAll
+  EXPECT_THROW(icp.align(), dw::Error);                                  // two sources: use alignAll
   EXPECT_THROW(icp.alignAll({dw::gpu::identityMatrix4d()}), dw::Error);  // one guess for two sources
   auto bad = dw::gpu::identityMatrix4d();
   bad[3] = std::numeric_limits<double>::quiet_NaN();

@@ -14,9 +14,9 @@
 
 namespace {
 
-using dwgpu_test::exactDist2;
 using dw::gpu::DelaunayWalk;
 using dw::gpu::DeviceBuffer;
+using dwgpu_test::exactDist2;
 constexpr std::uint32_t kInv = dw::kInvalidIndex;
 
 dw::DelaunayGraph buildGraph(const std::vector<double>& xyz) {

@@ -32,8 +32,8 @@ struct Points {
 
   template <typename T>
   double at(std::size_t i, int k) const {
-    return static_cast<double>(*reinterpret_cast<const T*>(data + static_cast<py::ssize_t>(i) * row_stride +
-                                                           k * col_stride));
+    return static_cast<double>(
+        *reinterpret_cast<const T*>(data + static_cast<py::ssize_t>(i) * row_stride + k * col_stride));
   }
 };
 
@@ -59,8 +59,8 @@ inline Points pointsArg(py::handle obj, const char* name, int min_cols = 3, int 
     throw py::type_error(std::string(name) + " must be float32 or float64, got dtype " +
                          py::cast<std::string>(dt.attr("name")));
   if (p.array.ndim() != 2 || p.array.shape(1) < min_cols || p.array.shape(1) > max_cols) {
-    const std::string want = min_cols == max_cols ? "(n, " + std::to_string(max_cols) + ")"
-                                                  : "(n, 2) or (n, 3)";
+    const std::string want =
+        min_cols == max_cols ? "(n, " + std::to_string(max_cols) + ")" : "(n, 2) or (n, 3)";
     throw py::value_error(std::string(name) + " must have shape " + want + ", got " + shapeText(p.array));
   }
   p.data = static_cast<const char*>(p.array.data());
@@ -89,8 +89,8 @@ inline dw::PointView pointView(Points& p) {
                                                 static_cast<std::size_t>(p.row_stride));
 }
 
-/// Per-query vertex hints (the caller checks for None first): n integers (-1 or any value >= the vertex count: none).
-/// \throws TypeError for a non-integer dtype, ValueError for a wrong length.
+/// Per-query vertex hints (the caller checks for None first): n integers (-1 or any value >= the vertex
+/// count: none). \throws TypeError for a non-integer dtype, ValueError for a wrong length.
 inline py::array_t<std::int64_t> hintsArg(py::handle obj, std::size_t n) {
   py::array a = py::array::ensure(obj);
   if (!a || (a.dtype().kind() != 'i' && a.dtype().kind() != 'u'))
@@ -102,7 +102,7 @@ inline py::array_t<std::int64_t> hintsArg(py::handle obj, std::size_t n) {
 
 inline dw::index_t hintVertex(std::int64_t h) {
   return h < 0 || h >= static_cast<std::int64_t>(dw::kInvalidIndex) ? dw::kInvalidIndex
-                                                                     : static_cast<dw::index_t>(h);
+                                                                    : static_cast<dw::index_t>(h);
 }
 
 /// A new C-contiguous array that owns a moved-in std::vector (no copy of the payload).

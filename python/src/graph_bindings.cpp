@@ -92,10 +92,12 @@ vertex). Vertices are stored in a local float frame relative to `origin`.)doc");
   c.def_property_readonly(
       "num_edges", [](const dw::DelaunayGraph& g) { return g.numDirectedEdges() / 2; }, "Undirected edges.");
   c.def_property_readonly("num_input_points", &dw::DelaunayGraph::numInputPoints);
-  c.def_property_readonly("dimension", [](const dw::DelaunayGraph& g) { return g.dimension; },
-                          "Affine dimension of the vertices: 0, 1, 2 (coplanar) or 3.");
-  c.def_property_readonly("origin", [](const dw::DelaunayGraph& g) { return g.origin; },
-                          "The local frame's origin (world = origin + local).");
+  c.def_property_readonly(
+      "dimension", [](const dw::DelaunayGraph& g) { return g.dimension; },
+      "Affine dimension of the vertices: 0, 1, 2 (coplanar) or 3.");
+  c.def_property_readonly(
+      "origin", [](const dw::DelaunayGraph& g) { return g.origin; },
+      "The local frame's origin (world = origin + local).");
   c.def_property_readonly("memory_bytes", &dw::DelaunayGraph::memoryBytes);
   c.def("degree_statistics", &degreeStatistics, "Vertex degrees: {'min', 'max', 'mean'}.");
   c.def_property_readonly(
@@ -115,7 +117,8 @@ vertex). Vertices are stored in a local float frame relative to `origin`.)doc");
       "Vertex of each input point (uint32; 4294967295 for a skipped NaN/Inf point), a read-only view.");
   c.def("__repr__", [](const dw::DelaunayGraph& g) {
     return "<DelaunayGraph " + std::to_string(g.numVertices()) + " vertices, " +
-           std::to_string(g.numDirectedEdges() / 2) + " edges, dimension " + std::to_string(g.dimension) + ">";
+           std::to_string(g.numDirectedEdges() / 2) + " edges, dimension " + std::to_string(g.dimension) +
+           ">";
   });
 }
 

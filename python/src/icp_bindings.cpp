@@ -5,14 +5,13 @@
 // PCL's SVD estimation, instantiated through icp.h, trips GCC 12 false positives inside Eigen.
 #pragma GCC diagnostic ignored "-Warray-bounds"
 #pragma GCC diagnostic ignored "-Wuse-after-free"
+#include <pcl/features/normal_3d.h>
+#include <pcl/point_types.h>
+#include <pcl/registration/transformation_estimation_point_to_plane_lls.h>
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
-
-#include <pcl/features/normal_3d.h>
-#include <pcl/point_types.h>
-#include <pcl/registration/transformation_estimation_point_to_plane_lls.h>
 
 #include <cmath>
 #include <limits>
@@ -119,8 +118,8 @@ py::dict run(const Points& source, const Points& target, const Eigen::Matrix4f& 
 }
 
 py::dict icp(py::handle source, py::handle target, const std::string& method, py::object init,
-             int max_iterations, double max_distance, double transformation_epsilon,
-             double fitness_epsilon, int normal_k, const std::string& strategy, unsigned threads,
+             int max_iterations, double max_distance, double transformation_epsilon, double fitness_epsilon,
+             int normal_k, const std::string& strategy, unsigned threads,
              std::shared_ptr<dw::DelaunayGraph> graph) {
   const Points src = pointsArg(source, "source"), tgt = pointsArg(target, "target");
   IcpSettings s;
@@ -145,7 +144,8 @@ py::dict icp(py::handle source, py::handle target, const std::string& method, py
       throw py::value_error("init must be a 4x4 matrix");
     guess = init.cast<Eigen::Matrix4d>().cast<float>();
   }
-  return s.point_to_plane ? run<pcl::PointNormal>(src, tgt, guess, s) : run<pcl::PointXYZ>(src, tgt, guess, s);
+  return s.point_to_plane ? run<pcl::PointNormal>(src, tgt, guess, s)
+                          : run<pcl::PointXYZ>(src, tgt, guess, s);
 }
 
 }  // namespace

@@ -48,7 +48,8 @@ void forEachQuery(const Batch& b, PerQuery&& per_query, Skip&& skip) {
   dw::parallelFor(q.n, b.workers, [&](std::size_t begin, std::size_t end, unsigned w) {
     for (std::size_t i = begin; i < end; ++i) {
       // ICP-like sequences start at their hint, a cache miss on most queries: fetch it early.
-      if (b.hints && i + kPrefetchAhead < end) b.search.prefetchStart(hintVertex(b.hints[i + kPrefetchAhead]));
+      if (b.hints && i + kPrefetchAhead < end)
+        b.search.prefetchStart(hintVertex(b.hints[i + kPrefetchAhead]));
       const double x = q.at<T>(i, 0), y = q.at<T>(i, 1), z = q.at<T>(i, 2);
       if (g.numVertices() == 0 || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
         skip(i);

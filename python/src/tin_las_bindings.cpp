@@ -49,7 +49,8 @@ py::dict readLas(const std::string& path, int classification, bool attributes) {
   const auto n = static_cast<py::ssize_t>(c.size());
   py::array_t<double> xyz({n, py::ssize_t(3)});
   double* out = xyz.mutable_data();
-  for (std::size_t i = 0; i < c.size(); ++i) out[3 * i] = c.x(i), out[3 * i + 1] = c.y(i), out[3 * i + 2] = c.z(i);
+  for (std::size_t i = 0; i < c.size(); ++i)
+    out[3 * i] = c.x(i), out[3 * i + 1] = c.y(i), out[3 * i + 2] = c.z(i);
   py::dict d;
   d["xyz"] = xyz;
   const dw::las::LasHeader& h = c.header;

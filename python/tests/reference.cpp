@@ -110,8 +110,9 @@ int icpRun(char** argv, bool point_to_plane) {
   const Eigen::Matrix4f t = icp.getFinalTransformation();
   std::printf("transform");
   for (int k = 0; k < 16; ++k) std::printf(" %a", double(t(k / 4, k % 4)));
-  std::printf("\nfitness %a\niterations %zu\nconverged %d\n", icp.getFitnessScore(max_distance * max_distance),
-              icp.getIterationStatistics().size(), int(icp.hasConverged()));
+  std::printf("\nfitness %a\niterations %zu\nconverged %d\n",
+              icp.getFitnessScore(max_distance * max_distance), icp.getIterationStatistics().size(),
+              int(icp.hasConverged()));
   return 0;
 }
 #endif
@@ -125,7 +126,7 @@ int main(int argc, char** argv) {
 #ifdef DW_PY_WITH_PCL
     if (what == "icp" && argc == 25)
       return std::string(argv[4]) == "point_to_plane" ? icpRun<pcl::PointNormal>(argv + 2, true)
-                                                       : icpRun<pcl::PointXYZ>(argv + 2, false);
+                                                      : icpRun<pcl::PointXYZ>(argv + 2, false);
 #endif
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dw_py_reference: %s\n", e.what());

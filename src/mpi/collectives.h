@@ -34,8 +34,8 @@ inline std::vector<int> displacements(const std::vector<int>& counts, const char
 }
 
 /// Alltoallv of plain bytes; send[r] goes to rank r, the result holds what rank r sent at [r].
-inline std::vector<std::vector<unsigned char>> exchangeBytes(MPI_Comm comm,
-                                                             const std::vector<std::vector<unsigned char>>& send) {
+inline std::vector<std::vector<unsigned char>> exchangeBytes(
+    MPI_Comm comm, const std::vector<std::vector<unsigned char>>& send) {
   const int P = static_cast<int>(send.size());
   std::vector<int> sc(P), sd(P, 0), rc(P), rd(P, 0);
   std::size_t total = 0;
@@ -60,8 +60,9 @@ inline std::vector<std::vector<unsigned char>> exchangeBytes(MPI_Comm comm,
 /// send_n[1] for rank 1, ...; the result is what every rank sent here, in rank order. The size errors
 /// name one message, what one rank sends and what it receives.
 template <class T>
-std::vector<T> exchangeRecords(MPI_Comm comm, const std::vector<T>& send, const std::vector<std::size_t>& send_n,
-                               const char* message, const char* sent, const char* received) {
+std::vector<T> exchangeRecords(MPI_Comm comm, const std::vector<T>& send,
+                               const std::vector<std::size_t>& send_n, const char* message, const char* sent,
+                               const char* received) {
   const int P = static_cast<int>(send_n.size());
   std::vector<int> scount(P), rcount(P);
   for (int r = 0; r < P; ++r) scount[r] = toInt(send_n[r] * sizeof(T), message);

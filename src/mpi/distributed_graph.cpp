@@ -49,9 +49,9 @@ Best globalBest(MPI_Comm comm, const Best& mine) {
   return b;
 }
 
-/// The single-process affine-dimension test (toleranceAffineDimension, geometry/affine_span.h) on the distributed vertices, with the
-/// same operations in the same order, so that it decides the same way: returns the dimension at
-/// relative tolerances 1e-9 and 1e-6.
+/// The single-process affine-dimension test (toleranceAffineDimension, geometry/affine_span.h) on the
+/// distributed vertices, with the same operations in the same order, so that it decides the same way: returns
+/// the dimension at relative tolerances 1e-9 and 1e-6.
 std::pair<int, int> distributedDimension(MPI_Comm comm, const std::vector<Vec3f>& p, std::uint64_t first) {
   // Vertex 0 lives on the first rank with vertices (the only one with vertices and first id 0).
   const bool has0 = !p.empty() && first == 0;
@@ -92,7 +92,6 @@ std::pair<int, int> distributedDimension(MPI_Comm comm, const std::vector<Vec3f>
   };
   return {dim(1e-9), dim(1e-6)};
 }
-
 
 /// The share [first, first + xyz.size() / 3) of the input sequence that this rank reads.
 struct InputShare {
@@ -167,7 +166,8 @@ std::vector<std::uint64_t> sampleSort(MPI_Comm comm, int P, std::vector<MortonIt
   std::vector<std::size_t> cnt(P, 0);
   for (std::size_t i = 0; i < items.size(); ++i) {
     dest[i] =
-        static_cast<int>(std::upper_bound(split.begin() + 1, split.end() - 1, items[i].key) - split.begin()) - 1;
+        static_cast<int>(std::upper_bound(split.begin() + 1, split.end() - 1, items[i].key) - split.begin()) -
+        1;
     ++cnt[dest[i]];
   }
   std::vector<MortonItem> send(items.size());
@@ -241,8 +241,8 @@ MortonCellGrid haloGrid(const dw::detail::MortonQuantiser& quantiser, const doub
   grid.width = std::ldexp(1.0, grid.k) / cell;
   for (int a = 0; a < 3; ++a) grid.base[a] = lo[a] - origin[a];
   // Quantisation rounds (fp - lo) * cell once and the float-to-world conversion once: far below this.
-  grid.slack = 1e-9 * (scale + std::fabs(origin[0]) + std::fabs(origin[1]) + std::fabs(origin[2])) +
-               1e-6 * grid.width;
+  grid.slack =
+      1e-9 * (scale + std::fabs(origin[0]) + std::fabs(origin[1]) + std::fabs(origin[2])) + 1e-6 * grid.width;
   return grid;
 }
 
@@ -261,7 +261,8 @@ std::vector<std::uint64_t> occupiedCells(MPI_Comm comm, const MortonCellGrid& gr
 
 /// The global hull: its boundary points are on some block's local hull; rank 0 triangulates the
 /// candidates and tells everyone the hull vertices, whose coordinates go into pts. Returns their ids.
-std::vector<index_t> globalHull(MPI_Comm comm, const RankBlock& block, SparsePoints& pts, const RankGraph& g) {
+std::vector<index_t> globalHull(MPI_Comm comm, const RankBlock& block, SparsePoints& pts,
+                                const RankGraph& g) {
   struct Cand {
     index_t id;
     Vec3f p;
@@ -378,7 +379,6 @@ RankGraph buildGraphDistributed(MPI_Comm comm, const PointInputSet& input, const
   progress("halos certified");
   return g;
 }
-
 
 DelaunayGraph gatherGraph(MPI_Comm comm, RankGraph&& part) {
   DelaunayGraph g;

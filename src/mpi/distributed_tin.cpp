@@ -2,8 +2,6 @@
 /// \brief The MPI driver: range read of one LAS file or a pre-split set, sampled strip splitters, all-to-all
 /// redistribution, leaf triangulation, and the pairwise merge tree over ranks.
 #include "pcl_delaunay_walk/mpi/distributed_tin.h"
-#include "mpi/collectives.h"
-#include "mpi/fault_injection.h"
 
 #include <algorithm>
 #include <chrono>
@@ -11,6 +9,8 @@
 #include <cmath>
 #include <numeric>
 
+#include "mpi/collectives.h"
+#include "mpi/fault_injection.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 
 namespace dw {
@@ -96,7 +96,6 @@ std::vector<PointRecord> readRecords(MPI_Comm comm, const DistributedTinOptions&
   if (total >= 0xffffffffull) throw Error(name + ": too many points for 32-bit global indices");
   for (std::size_t i = 0; i < mine.size(); ++i) mine[i].gid = base + i;
   return mine;
-
 }
 
 /// The long axis and equal-count splitters split[0..P] (split[0] = -inf, split[P] = +inf) from a
@@ -152,8 +151,8 @@ StripPoints redistribute(MPI_Comm comm, int P, int axis, const std::vector<doubl
   }
   std::vector<PointRecord>().swap(mine);
   std::vector<int>().swap(dest);
-  std::vector<PointRecord> strip =
-      collective::exchangeRecords(comm, out, send_n, "a redistribution message", "one rank's share", "one rank's strip");
+  std::vector<PointRecord> strip = collective::exchangeRecords(comm, out, send_n, "a redistribution message",
+                                                               "one rank's share", "one rank's strip");
   std::vector<PointRecord>().swap(out);
   StripPoints pts;
   pts.reserve(strip.size());

@@ -7,8 +7,8 @@
 #include <sstream>
 
 #include "manifest_file.h"
-#include "pcl_delaunay_walk/mpi/distributed_graph.h"
 #include "mpi/fault_injection.h"
+#include "pcl_delaunay_walk/mpi/distributed_graph.h"
 
 namespace dw {
 namespace mpi {

@@ -32,8 +32,8 @@ namespace mpi {
 namespace detail {
 
 using builder3d::RoundedCircumsphere;
-using builder3d::Triangulation3D;
 using builder3d::roundedCircumsphere;
+using builder3d::Triangulation3D;
 
 inline double since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

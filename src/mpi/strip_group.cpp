@@ -25,7 +25,7 @@ std::uint64_t edgeKey(index_t a, index_t b) {
 /// the textbook one, and ill-conditioned (nearly collinear) triangles are simply not sure: a wrong
 /// "unsure" only costs merge time, a wrong "sure" would break exactness.
 bool sureInStrip(double ax, double ay, double bx_, double by_, double cx_, double cy_, int axis, double lo,
-                double hi) {
+                 double hi) {
   if (std::isinf(lo) && lo < 0 && std::isinf(hi) && hi > 0) return true;
   const double bx = bx_ - ax, by = by_ - ay, cx = cx_ - ax, cy = cy_ - ay;
   const double B = bx * bx + by * by, C = cx * cx + cy * cy;
@@ -93,7 +93,7 @@ void checkSorted(const StripPoints& v, const char* who) {
 /// The step shared by leaves and merges: DT(V), minus what the fences say is already emitted, split
 /// into the emitted (sure in [lo, hi)) and the rest, whose vertices and hull go up as the new band.
 StripGroup processStrip(StripPoints&& v, const std::vector<std::uint64_t>& gid_fences, int axis, double lo,
-                      double hi, Emitted& out, const StripOptions& options) {
+                        double hi, Emitted& out, const StripOptions& options) {
   const std::size_t n = v.size();
   tin::TinOptions topt;
   topt.num_threads = std::max(1u, options.num_threads);
@@ -220,7 +220,7 @@ void StripPoints::push(index_t g, double px, double py, double pz) {
 }
 
 StripGroup processLeaf(StripPoints&& points, int axis, double lo, double hi, Emitted& out,
-                      const StripOptions& options) {
+                       const StripOptions& options) {
   if (axis != 0 && axis != 1) throw Error("dw::mpi::processLeaf: axis must be 0 or 1");
   if (!(lo < hi)) throw Error("dw::mpi::processLeaf: empty strip [lo, hi)");
   checkSorted(points, "dw::mpi::processLeaf");

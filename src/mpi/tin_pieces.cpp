@@ -7,9 +7,9 @@
 #include <sstream>
 
 #include "manifest_file.h"
+#include "mpi/fault_injection.h"
 #include "pcl_delaunay_walk/core/tin/ply_writer.h"
 #include "pcl_delaunay_walk/mpi/distributed_tin.h"
-#include "mpi/fault_injection.h"
 
 namespace dw {
 namespace mpi {

@@ -30,8 +30,8 @@ struct DistributedGraphOptions {
   /// dragon, whose surface leaves most small cells empty) but a thicker first ring. Only speed depends
   /// on it, never the graph.
   int cell_shift = 1;
-  /// Testing hook: fail or die on one rank at one stage ("read", "sort", "block", "grow", "write"): "fail:STAGE:RANK" or
-  /// "kill:STAGE:RANK" (the apps' --inject); empty: none.
+  /// Testing hook: fail or die on one rank at one stage ("read", "sort", "block", "grow", "write"):
+  /// "fail:STAGE:RANK" or "kill:STAGE:RANK" (the apps' --inject); empty: none.
   std::string inject_fault;
 };
 

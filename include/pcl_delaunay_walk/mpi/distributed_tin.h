@@ -2,9 +2,9 @@
 /// \brief MPI driver of the distributed 2D Delaunay TIN: every rank reads its own range of the records of
 /// a LAS file or of a pre-split set of LAS files (las_input_set.h), points are redistributed into equal-count
 /// strips along the long axis (sampled splitters, MPI_Alltoallv), each rank triangulates its strip and emits
-/// what is provably final, and the rest is merged up a log-depth tree of rank pairs (strip_group.h). The union
-/// of all ranks' emitted triangles is exactly the single-process dw::tin::triangulate result on the same
-/// input (docs/mpi.md).
+/// what is provably final, and the rest is merged up a log-depth tree of rank pairs (strip_group.h). The
+/// union of all ranks' emitted triangles is exactly the single-process dw::tin::triangulate result on the
+/// same input (docs/mpi.md).
 #pragma once
 
 #include <mpi.h>
@@ -28,8 +28,8 @@ struct DistributedTinOptions {
   std::uint64_t max_records = 0;  ///< use only the first max_records records (0: all); for weak scaling
   /// Progress lines (called on rank 0 only).
   std::function<void(const std::string&)> progress;
-  /// Testing hook: fail or die on one rank at one stage ("read", "leaf", "merge", "write"): "fail:STAGE:RANK" or
-  /// "kill:STAGE:RANK" (the apps' --inject); empty: none.
+  /// Testing hook: fail or die on one rank at one stage ("read", "leaf", "merge", "write"): "fail:STAGE:RANK"
+  /// or "kill:STAGE:RANK" (the apps' --inject); empty: none.
   std::string inject_fault;
 };
 
@@ -42,7 +42,7 @@ struct RankTin {
   int rank = 0, size = 1;
   Frame frame;
   std::uint64_t total_points = 0;  ///< kept records over all ranks (global indices 0 .. total - 1)
-  std::size_t strip_points = 0;     ///< points this rank triangulated at its leaf
+  std::size_t strip_points = 0;    ///< points this rank triangulated at its leaf
   Emitted emitted;                 ///< triangles this rank emitted (leaf and the merges it hosted)
   StripPoints coords;  ///< frame x, y and world z of every vertex this rank's triangles use (by gid)
   RankTimings timings;

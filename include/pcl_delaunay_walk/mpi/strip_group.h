@@ -63,7 +63,7 @@ struct StripOptions {
 /// triangles that are sure in the strip and returns the group that carries the rest. Throws dw::Error
 /// on points outside the strip, unsorted gids, or any internal inconsistency.
 StripGroup processLeaf(StripPoints&& points, int axis, double lo, double hi, Emitted& out,
-                      const StripOptions& options = {});
+                       const StripOptions& options = {});
 
 /// Merge step: `left` and `right` are groups of adjacent strips (left.hi == right.lo). Triangulates the
 /// union of their bands, discards (by flooding from the fences) what the already emitted triangles

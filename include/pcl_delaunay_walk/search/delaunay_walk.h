@@ -11,8 +11,8 @@
 #include <string>
 
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
-#include "pcl_delaunay_walk/core/search/start_strategy.h"
 #include "pcl_delaunay_walk/core/search/caller_metric_search.h"
+#include "pcl_delaunay_walk/core/search/start_strategy.h"
 
 namespace pcl {
 namespace search {

@@ -8,10 +8,10 @@
 #include <limits>
 #include <thread>
 
-#include "triangulation_3d.h"
-#include "insertion_order.h"
 #include "core/geometry/rounded_circumsphere.h"
 #include "core/graph/cell_grid.h"
+#include "insertion_order.h"
+#include "triangulation_3d.h"
 
 namespace dw {
 namespace builder3d {

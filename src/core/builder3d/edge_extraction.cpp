@@ -91,8 +91,8 @@ void planRanges(RangeLists& out, std::size_t nt, std::size_t n, unsigned num_thr
 // caller frees next, and its pages go back to the system as they are listed. `donor`, when given, is
 // an array the caller frees next (the adjacency), whose storage the lists take over when it is big
 // enough.
-RangeLists listByRange(const SlotArray<index_t>& tet_v, std::size_t n, unsigned num_threads, std::size_t first,
-                       std::size_t last, SlotArray<index_t>* give_back = nullptr,
+RangeLists listByRange(const SlotArray<index_t>& tet_v, std::size_t n, unsigned num_threads,
+                       std::size_t first, std::size_t last, SlotArray<index_t>* give_back = nullptr,
                        SlotArray<index_t>* donor = nullptr) {
   if (num_threads == 0) num_threads = 1;
   if (give_back != nullptr && give_back != &tet_v)
@@ -303,7 +303,8 @@ inline std::size_t dropRepeats(std::size_t lo, std::size_t hi, RangeScratch& s) 
 }
 
 // The range's edges (a, b) from the scratch, written from `out` on.
-inline void writeRange(std::size_t lo, std::size_t hi, const RangeScratch& s, std::pair<index_t, index_t>* out) {
+inline void writeRange(std::size_t lo, std::size_t hi, const RangeScratch& s,
+                       std::pair<index_t, index_t>* out) {
   std::size_t k = 0;
   for (std::size_t a = lo; a < hi; ++a)
     for (; k < s.fill[a - lo]; ++k) out[k] = {static_cast<index_t>(a), s.bucket[k]};
@@ -405,7 +406,7 @@ Triangulation3D::EdgeChunks Triangulation3D::edgeChunks(unsigned num_threads) co
 }
 
 std::vector<std::pair<index_t, index_t>> Triangulation3D::edgesFrom(std::size_t first,
-                                                                     std::size_t last) const {
+                                                                    std::size_t last) const {
   return joinChunks(edgesOfRanges(listByRange(mesh_.tet_v, num_points_, 1, first, last), 1));
 }
 
@@ -424,7 +425,6 @@ std::vector<std::pair<index_t, index_t>> Triangulation3D::joinChunks(EdgeChunks&
   }
   return out;
 }
-
 
 Triangulation3D::EdgeChunks Triangulation3D::releaseIntoEdgeChunks(unsigned num_threads) {
   // Only the vertex quadruples are needed from here on: free the rest before the edges are made,

@@ -11,10 +11,10 @@
 #include <thread>
 #include <utility>
 
-#include "triangulation_3d.h"
 #include "insertion_order.h"
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
+#include "triangulation_3d.h"
 
 namespace dw {
 

@@ -8,8 +8,8 @@
 #include "core/util/page_memory.h"
 #include "core/util/parallel_bucket.h"
 #include "core/util/parallel_sort.h"
-#include "pcl_delaunay_walk/core/util/parallel_for.h"
 #include "core/util/space_filling_curve.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
 #include "pcl_delaunay_walk/core/util/uninitialised_allocator.h"
 
 namespace dw {

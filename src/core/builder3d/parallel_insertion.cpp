@@ -4,6 +4,8 @@
 // cut the cells -> deal the points to the threads -> open the slot pool -> find each thread's start
 // -> insert, handing on what slow threads have not tried -> merge the threads' slots and counts.
 // The perturbed Delaunay triangulation is unique, so the result does not depend on the thread count.
+#include "core/builder3d/parallel_insertion.h"
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -11,7 +13,6 @@
 #include <numeric>
 #include <vector>
 
-#include "core/builder3d/parallel_insertion.h"
 #include "core/util/page_memory.h"
 #include "core/util/parallel_bucket.h"
 #include "core/util/parallel_sort.h"
@@ -90,7 +91,10 @@ void Triangulation3D::CellSplit::build(const Vec3f* points, std::size_t m, unsig
 // One pass of insertParallel over `threads` cells; run() leaves in `pending` what it deferred.
 struct Triangulation3D::ParallelPass {
   ParallelPass(Triangulation3D& triangulation, unsigned thread_count, unsigned pass_index)
-      : tri(triangulation), threads(thread_count), pass(pass_index), start(std::chrono::steady_clock::now()) {}
+      : tri(triangulation),
+        threads(thread_count),
+        pass(pass_index),
+        start(std::chrono::steady_clock::now()) {}
 
   void run(std::vector<index_t>& pending) {
     cutCells(pending);
@@ -177,7 +181,6 @@ void Triangulation3D::insertBatch(std::vector<index_t> pending, unsigned num_thr
         std::chrono::duration<double>(std::chrono::steady_clock::now() - rest_start).count();
 }
 
-
 void Triangulation3D::ParallelPass::cutCells(const std::vector<index_t>& pending) {
   const Vec3f* const points = tri.points_;
   {
@@ -232,7 +235,8 @@ void Triangulation3D::ParallelPass::openSlotPool(std::size_t points_in_pass) {
   TetraMesh& mesh = tri.mesh_;
   const std::size_t used = mesh.slots();
   const std::size_t growth = 7 * points_in_pass + 2 * kSlotChunk * threads;
-  const std::size_t fresh = (growth > mesh.free.size() ? growth - mesh.free.size() : 0) + kSlotChunk * threads;
+  const std::size_t fresh =
+      (growth > mesh.free.size() ? growth - mesh.free.size() : 0) + kSlotChunk * threads;
   if (4 * (used + fresh) > mesh.tet_v.capacity()) mesh.reserveSlots(used + fresh + (used + fresh) / 8);
   // The fresh range is only reserved here: a thread writes (and so maps) a chunk when it takes it
   // (takeSlots). Writing the range here, on one thread, took 0.13 s of a 4M-point build on 16 threads,

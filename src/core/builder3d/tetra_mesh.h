@@ -55,8 +55,8 @@ inline std::size_t hashKey(std::uint64_t k, unsigned bits) {
 }
 
 struct TetraMesh {
-  static constexpr index_t kInfinite = 0xFFFFFFFFu;  ///< the vertex at infinity
-  static constexpr index_t kDead = 0xFFFFFFFEu;      ///< first vertex slot of a recycled tetrahedron
+  static constexpr index_t kInfinite = 0xFFFFFFFFu;     ///< the vertex at infinity
+  static constexpr index_t kDead = 0xFFFFFFFEu;         ///< first vertex slot of a recycled tetrahedron
   static constexpr std::uint32_t kNoTet = 0xFFFFFFFFu;  ///< no tetrahedron (a walk that gave up)
 
   /// Per tetrahedron, during one insertion or removal. Not a char type, so that its stores do not
@@ -66,10 +66,10 @@ struct TetraMesh {
   // Vertices and neighbour codes in separate arrays (measured: interleaving them in one cache line
   // made no difference), so the adjacency can be freed before the edge extraction, which needs only
   // the vertices: that keeps the builder's peak near one copy of the tetrahedra.
-  SlotArray<index_t> tet_v;        ///< 4 per tetrahedron
-  SlotArray<std::uint32_t> tet_n;  ///< 4 per tetrahedron: neighbour tet * 4 + the shared face's index there
-  SlotArray<Mark> mark;            ///< per tetrahedron; kUnknown between insertions
-  std::vector<index_t> free;       ///< recycled tetrahedra (the sequential free list)
+  SlotArray<index_t> tet_v;          ///< 4 per tetrahedron
+  SlotArray<std::uint32_t> tet_n;    ///< 4 per tetrahedron: neighbour tet * 4 + the shared face's index there
+  SlotArray<Mark> mark;              ///< per tetrahedron; kUnknown between insertions
+  std::vector<index_t> free;         ///< recycled tetrahedra (the sequential free list)
   std::vector<std::uint32_t> birth;  ///< per tetrahedron, with track_births: the clock at its creation
   bool track_births = false;
 

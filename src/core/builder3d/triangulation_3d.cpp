@@ -155,7 +155,7 @@ index_t Triangulation3D::locateInline(index_t v, index_t start) {
 
 template <bool kStopInConflict, class Owner>
 index_t Triangulation3D::walkTo(const double* p, index_t t, Worker& w, const Owner& own,
-                                 std::uint64_t guard) const {
+                                std::uint64_t guard) const {
   // With a sharing owner: only through owned tetrahedra (stable under this thread). A walk that would
   // leave them ends at a point whose cavity would not be owned either, almost always, so the caller
   // defers the point at once.
@@ -237,13 +237,14 @@ index_t Triangulation3D::locateByScan(index_t v) const {
 }
 
 [[gnu::always_inline]] inline bool Triangulation3D::inConflict(index_t t, index_t v,
-                                                                const predicates::BroadcastPoint& p) const {
-  if (__builtin_expect(!hasInfiniteVertex(&mesh_.tet_v[4 * std::size_t(t)]), 1)) return finiteInConflict(t, v, p);
+                                                               const predicates::BroadcastPoint& p) const {
+  if (__builtin_expect(!hasInfiniteVertex(&mesh_.tet_v[4 * std::size_t(t)]), 1))
+    return finiteInConflict(t, v, p);
   return infiniteInConflict(t, v, p);
 }
 
 bool Triangulation3D::infiniteInConflict(index_t t, index_t v,
-                                          const predicates::BroadcastPoint& query) const {
+                                         const predicates::BroadcastPoint& query) const {
   const double* p = query.p;
   const index_t* tv = &mesh_.tet_v[4 * std::size_t(t)];
   unsigned k = 0;
@@ -266,7 +267,6 @@ bool Triangulation3D::infiniteInConflict(index_t t, index_t v,
   if (o != 0.0) return o > 0.0;
   return finiteInConflict(mesh_.tet_n[4 * std::size_t(t) + k] >> 2, v, query);
 }
-
 
 bool Triangulation3D::takeSlots(Worker& w, std::size_t count) {
   // The pass's slot pool is the recycled slots (pool_, sorted) followed by the fresh range
@@ -404,7 +404,8 @@ template <class W>
 // The boundary: the candidates bnd[0..num_candidates) whose neighbour ended outside the cavity,
 // compacted in place (branch-free: each face advances the output by a flag). Returns their count.
 template <class Face, class M>
-[[gnu::always_inline]] inline std::size_t compactBoundary(Face* bnd, std::size_t num_candidates, const M* mark) {
+[[gnu::always_inline]] inline std::size_t compactBoundary(Face* bnd, std::size_t num_candidates,
+                                                          const M* mark) {
   std::size_t num_boundary = 0;
   for (std::size_t k = 0; k < num_candidates; ++k) {
     const Face bf = bnd[k];
@@ -726,7 +727,6 @@ void Triangulation3D::writeNewTetrahedra(Worker& w) {
     keys[h] = kLinkTombstone;
   }
 }
-
 
 void Triangulation3D::validate() const {
   // The structure first: the geometric checks below follow neighbour codes it has found sound.

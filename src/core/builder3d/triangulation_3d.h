@@ -37,7 +37,7 @@ namespace builder3d {
 class Triangulation3D {
  public:
   static constexpr index_t kInfinite = TetraMesh::kInfinite;  ///< the vertex at infinity
-  static constexpr index_t kDead = TetraMesh::kDead;  ///< first vertex slot of a recycled tetrahedron
+  static constexpr index_t kDead = TetraMesh::kDead;          ///< first vertex slot of a recycled tetrahedron
   /// Keeps tet * 4 + face in 32 bits (about 6.7 tetrahedra per vertex on volumetric input).
   static constexpr std::size_t kMaxVertices = 150000000;
 
@@ -134,8 +134,8 @@ class Triangulation3D {
   // ---- Vertex removal (sliding-window maps; vertex_removal.cpp) ----
   /// Removes vertex v: its star is re-triangulated by the Delaunay triangulation of its link under the
   /// same perturbation, so the result equals a fresh build of the remaining vertices (with the same ids).
-  /// Throws dw::Error, leaving the structure unchanged, when the triangulation is not built, v is out of range
-  /// or not present, or the remaining vertices would not span 3D (fewer than 4, or all coplanar).
+  /// Throws dw::Error, leaving the structure unchanged, when the triangulation is not built, v is out of
+  /// range or not present, or the remaining vertices would not span 3D (fewer than 4, or all coplanar).
   /// numVertices() drops by one; clock() (birth tracking) counts vertices present, so it is not
   /// monotone across removals.
   void remove(index_t v);
@@ -223,7 +223,8 @@ class Triangulation3D {
   bool insertOnThisCpu(index_t v, Worker& w, const Owner& own);
   // Stage 1: a tetrahedron in conflict with v (at p), or kNoTet where a sharing owner must defer v.
   template <class Owner>
-  [[gnu::always_inline]] inline index_t locateConflict(index_t v, const double* p, Worker& w, const Owner& own);
+  [[gnu::always_inline]] inline index_t locateConflict(index_t v, const double* p, Worker& w,
+                                                       const Owner& own);
   // Throws dw::Error when v repeats a vertex of t (the tetrahedron the walk stopped in).
   [[gnu::always_inline]] inline void checkNotDuplicate(index_t v, index_t t) const;
   // Stage 2: the cavity of v from tetrahedron t into w.cavity, and its boundary faces into w.boundary.

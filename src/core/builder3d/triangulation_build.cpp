@@ -59,17 +59,17 @@ void Triangulation3D::initialTetrahedron(index_t a, index_t b, index_t c, index_
 }
 
 void Triangulation3D::build(const index_t* order, std::size_t n,
-                             const std::function<void(double)>& progress) {
+                            const std::function<void(double)>& progress) {
   build(order, n, progress, {}, 1);
 }
 
 void Triangulation3D::build(const index_t* order, std::size_t n, const std::function<void(double)>& progress,
-                             const std::vector<std::size_t>& batch_begin, unsigned num_threads) {
+                            const std::vector<std::size_t>& batch_begin, unsigned num_threads) {
   buildBatches(order, n, progress, batch_begin, num_threads, nullptr);
 }
 
 void Triangulation3D::build(std::vector<index_t>&& order, const std::function<void(double)>& progress,
-                             const std::vector<std::size_t>& batch_begin, unsigned num_threads) {
+                            const std::vector<std::size_t>& batch_begin, unsigned num_threads) {
   buildBatches(order.data(), order.size(), progress, batch_begin, num_threads, &order);
 }
 
@@ -106,9 +106,9 @@ std::pair<std::size_t, std::size_t> Triangulation3D::startBuild(const index_t* o
 }
 
 void Triangulation3D::buildBatches(const index_t* order, std::size_t n,
-                                    const std::function<void(double)>& progress,
-                                    const std::vector<std::size_t>& batch_begin, unsigned num_threads,
-                                    std::vector<index_t>* owned) {
+                                   const std::function<void(double)>& progress,
+                                   const std::vector<std::size_t>& batch_begin, unsigned num_threads,
+                                   std::vector<index_t>* owned) {
   const auto [kc, kd] = startBuild(order, n);
 
   // Batches (BRIO rounds): each is inserted by insertParallel, which runs threads when it is big

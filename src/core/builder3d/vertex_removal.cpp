@@ -203,7 +203,8 @@ void fillFromLink(const Vec3f* points, std::size_t num_points, const Hole& hole,
   for (std::size_t k = 0; k < queue.size(); ++k) {
     const index_t s = queue[k];
     const index_t* sv = mesh.vertices(s);
-    if (!hole.on_hull && (sv[0] == kInfinite || sv[1] == kInfinite || sv[2] == kInfinite || sv[3] == kInfinite))
+    if (!hole.on_hull &&
+        (sv[0] == kInfinite || sv[1] == kInfinite || sv[2] == kInfinite || sv[3] == kInfinite))
       throw Error(std::string(kWhere) + "internal: the fill of an interior vertex reached the hull");
     fill.v.insert(fill.v.end(), sv, sv + 4);
     for (unsigned j = 0; j < 4; ++j) {
@@ -225,7 +226,8 @@ void fillFromLink(const Vec3f* points, std::size_t num_points, const Hole& hole,
 
 // A flat link (a hull vertex's): each finite boundary face becomes a hull facet, closed by one
 // infinite tetrahedron; those are linked by matching each inner face with its reverse.
-void fillFlatLink(const TetraMesh& mesh, index_t v, const Hole& hole, const FaceTable& hole_index, Fill& fill) {
+void fillFlatLink(const TetraMesh& mesh, index_t v, const Hole& hole, const FaceTable& hole_index,
+                  Fill& fill) {
   // An interior vertex's link surrounds it, so it always spans 3D; a flat one means corruption.
   if (!hole.on_hull) throw Error(std::string(kWhere) + "internal: the link of an interior vertex is flat");
   for (const FaceRecord& h : hole.faces) {
@@ -253,10 +255,12 @@ void fillFlatLink(const TetraMesh& mesh, index_t v, const Hole& hole, const Face
       }
     }
   const FaceTable inner_index(inner);
-  if (inner_index.hasRepeats()) throw Error(std::string(kWhere) + "internal: an inner face of the fill repeats");
+  if (inner_index.hasRepeats())
+    throw Error(std::string(kWhere) + "internal: an inner face of the fill repeats");
   for (const FaceRecord& r : inner) {
     const std::size_t o = inner_index.find(reversed(r.face));
-    if (o == FaceTable::kNone) throw Error(std::string(kWhere) + "internal: an inner face of the fill is open");
+    if (o == FaceTable::kNone)
+      throw Error(std::string(kWhere) + "internal: an inner face of the fill is open");
     fill.neighbour[r.code] = kLocal | inner[o].code;
   }
 }

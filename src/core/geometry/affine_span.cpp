@@ -7,7 +7,6 @@
 #include <cmath>
 
 #include "core/geometry/vec3d.h"
-
 #include "pcl_delaunay_walk/core/geometry/predicates_3d.h"
 
 namespace dw {

@@ -8,11 +8,11 @@
 #include <string>
 #include <unordered_set>
 
+#include "core/builder3d/insertion_order.h"
 #include "core/builder3d/triangulation_3d.h"
 #include "core/geometry/affine_span.h"
-#include "core/builder3d/insertion_order.h"
-#include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "core/util/space_filling_curve.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
 
 namespace dw {
 

@@ -5,11 +5,11 @@
 #include <cstring>
 #include <numeric>
 
-#include "core/graph/prepare_vertices.h"
-#include "pcl_delaunay_walk/core/util/parallel_for.h"
-#include "core/util/space_filling_curve.h"
 #include "core/geometry/affine_span.h"
+#include "core/graph/prepare_vertices.h"
+#include "core/util/space_filling_curve.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
 
 namespace dw {
 

@@ -65,7 +65,9 @@ inline bool mortonItemLess(const MortonItem& a, const MortonItem& b) {
   return a.input < b.input;
 }
 
-inline bool samePosition(const Vec3f& a, const Vec3f& b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+inline bool samePosition(const Vec3f& a, const Vec3f& b) {
+  return a.x == b.x && a.y == b.y && a.z == b.z;
+}
 
 /// Fills g's origin, points (distinct float positions in Morton order), originals, originals_offsets and
 /// input_to_vertex from the view, on `threads` threads in blocks joined in block order, so the result is

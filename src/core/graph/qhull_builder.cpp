@@ -1,11 +1,11 @@
 // Delaunay edges with Qhull (libqhull_r), the baseline builder and the cross-check of the others.
 //
-// Options: "d Qbb QJ". Measured (docs/architecture.md, "Building the graph"): the default triangulated output "Qt" ran past 120 s on
-// exactly cospherical input, while joggle (QJ) always finishes. A joggled triangulation is a Delaunay
-// triangulation of points moved by ~1e-11 of the extent; it can differ from the real points' only where
-// they are degenerate within that distance, where the choice of diagonal is a tie (both walks stay exact
-// to float resolution). The input is centred by the caller (raw UTM coordinates made Qhull run past
-// 200 s and drop points), and every point must come back as a vertex, or we throw.
+// Options: "d Qbb QJ". Measured (docs/architecture.md, "Building the graph"): the default triangulated output
+// "Qt" ran past 120 s on exactly cospherical input, while joggle (QJ) always finishes. A joggled
+// triangulation is a Delaunay triangulation of points moved by ~1e-11 of the extent; it can differ from the
+// real points' only where they are degenerate within that distance, where the choice of diagonal is a tie
+// (both walks stay exact to float resolution). The input is centred by the caller (raw UTM coordinates made
+// Qhull run past 200 s and drop points), and every point must come back as a vertex, or we throw.
 #include <cstdio>
 #include <cstdlib>
 #include <string>

@@ -65,8 +65,9 @@ LasHeader parseAnyHeader(const unsigned char* b, std::size_t available, std::uin
   // count stay those of the uncompressed records, checked against the chunk table by the reader.
   const bool compressed = (raw_format & 0xC0) != 0;
   if (compressed && !allow_laz)
-    throw LasError(name + ": this is a LAZ (LASzip-compressed) header; parseHeader reads uncompressed "
-                          "headers, LasReader and readLasFile read LAZ files");
+    throw LasError(name +
+                   ": this is a LAZ (LASzip-compressed) header; parseHeader reads uncompressed "
+                   "headers, LasReader and readLasFile read LAZ files");
   h.point_format = raw_format & 0x3F;
   const std::size_t min_header = h.version_minor >= 4 ? 375 : (h.version_minor == 3 ? 235 : 227);
   if (h.header_size < min_header)
@@ -181,7 +182,8 @@ std::size_t LasReader::readLaz(std::vector<LasRecord>& out, std::size_t n) {
     const std::uint64_t first = laz_->firstPoint(c);
     const std::size_t take = std::size_t(std::min<std::uint64_t>(n - done, first + laz_->points(c) - next_));
     for (std::size_t i = 0; i < take; ++i)
-      decodeRecord(buffer_.data() + (next_ - first + i) * header_.record_length, header_.point_format, out[done + i]);
+      decodeRecord(buffer_.data() + (next_ - first + i) * header_.record_length, header_.point_format,
+                   out[done + i]);
     done += take;
     next_ += take;
   }
@@ -252,8 +254,7 @@ LasCloud readLazFile(const std::string& path, const LasReadOptions& options) {
     });
     for (std::size_t i = 0; i < n; ++i)
       appendRecords(slots[i].records.data(), chunks.points(begin + i), h, options, cloud);
-    if (options.progress)
-      options.progress(double(begin + n) / double(chunks.size()), options.progress_user);
+    if (options.progress) options.progress(double(begin + n) / double(chunks.size()), options.progress_user);
   }
   return cloud;
 }

@@ -343,10 +343,12 @@ class ArithmeticEncoder {
 class IntegerCodec {
  public:
   IntegerCodec() = default;
-  IntegerCodec(unsigned bits, unsigned contexts, bool decoder, unsigned bits_high = 8, std::uint32_t range = 0) {
+  IntegerCodec(unsigned bits, unsigned contexts, bool decoder, unsigned bits_high = 8,
+               std::uint32_t range = 0) {
     create(bits, contexts, decoder, bits_high, range);
   }
-  void create(unsigned bits, unsigned contexts, bool decoder, unsigned bits_high = 8, std::uint32_t range = 0) {
+  void create(unsigned bits, unsigned contexts, bool decoder, unsigned bits_high = 8,
+              std::uint32_t range = 0) {
     bits_high_ = bits_high;
     if (range) {
       corr_bits_ = 0;

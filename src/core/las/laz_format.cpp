@@ -93,18 +93,19 @@ void validateItems(const LaszipVlr& v, unsigned format, unsigned record_length) 
   }();
   LaszipVlr expect = defaultLaszipVlr(format, base_extra, v.chunk_size);  // throws for 4, 5, 9, 10
   if ((format <= 3) != (v.compressor != kLayeredChunked))
-    throw std::runtime_error("LASzip compressor " + std::to_string(v.compressor) + " does not fit point format " +
-                             std::to_string(format));
+    throw std::runtime_error("LASzip compressor " + std::to_string(v.compressor) +
+                             " does not fit point format " + std::to_string(format));
   if (v.items.size() != expect.items.size())
     throw std::runtime_error("LASzip VLR lists " + std::to_string(v.items.size()) + " items, point format " +
-                             std::to_string(format) + " with " + std::to_string(base_extra) + " extra bytes needs " +
-                             std::to_string(expect.items.size()));
+                             std::to_string(format) + " with " + std::to_string(base_extra) +
+                             " extra bytes needs " + std::to_string(expect.items.size()));
   for (std::size_t i = 0; i < v.items.size(); ++i) {
     const Item& a = v.items[i];
     const Item& e = expect.items[i];
     if (a.type != e.type || a.size != e.size)
-      throw std::runtime_error("LASzip item " + std::to_string(i) + " (type " + std::to_string(a.type) + ", " +
-                               std::to_string(a.size) + " bytes) does not fit point format " + std::to_string(format));
+      throw std::runtime_error("LASzip item " + std::to_string(i) + " (type " + std::to_string(a.type) +
+                               ", " + std::to_string(a.size) + " bytes) does not fit point format " +
+                               std::to_string(format));
     const bool ok = format <= 3 ? a.version == 2 : (a.version == 3 || a.version == 4);
     if (!ok)
       throw std::runtime_error("LASzip item type " + std::to_string(a.type) + " version " +
@@ -148,7 +149,8 @@ std::vector<std::uint8_t> encodeChunkTable(const ChunkTable& table, bool variabl
   enc.init();
   IntegerCodec ic(32, 2, false);
   for (std::size_t i = 0; i < table.bytes.size(); ++i) {
-    if (variable) ic.compress(enc, i ? std::int32_t(table.counts[i - 1]) : 0, std::int32_t(table.counts[i]), 0);
+    if (variable)
+      ic.compress(enc, i ? std::int32_t(table.counts[i - 1]) : 0, std::int32_t(table.counts[i]), 0);
     ic.compress(enc, i ? std::int32_t(table.bytes[i - 1]) : 0, std::int32_t(table.bytes[i]), 1);
   }
   enc.done();

@@ -57,7 +57,8 @@ inline void decodeRgb(ArithmeticDecoder& dec, RgbModels& m, const std::uint16_t*
     }
     diff = std::int32_t(r >> 8) - (last[0] >> 8);
     if (sym & 8)
-      g |= std::uint32_t(fold8(std::int32_t(dec.decodeSymbol(m.diff[3])) + clamp8(diff + (last[1] >> 8)))) << 8;
+      g |= std::uint32_t(fold8(std::int32_t(dec.decodeSymbol(m.diff[3])) + clamp8(diff + (last[1] >> 8))))
+           << 8;
     else
       g |= last[1] & 0xFF00;
     if (sym & 32) {
@@ -75,7 +76,8 @@ inline void decodeRgb(ArithmeticDecoder& dec, RgbModels& m, const std::uint16_t*
   item[2] = std::uint16_t(b);
 }
 
-inline void encodeRgb(ArithmeticEncoder& enc, RgbModels& m, const std::uint16_t* last, const std::uint16_t* item) {
+inline void encodeRgb(ArithmeticEncoder& enc, RgbModels& m, const std::uint16_t* last,
+                      const std::uint16_t* item) {
   std::uint32_t sym = ((last[0] & 0x00FF) != (item[0] & 0x00FF)) << 0;
   sym |= ((last[0] & 0xFF00) != (item[0] & 0xFF00)) << 1;
   sym |= ((last[1] & 0x00FF) != (item[1] & 0x00FF)) << 2;
@@ -126,7 +128,8 @@ struct NirModels {
 
 inline std::uint16_t decodeNir(ArithmeticDecoder& dec, NirModels& m, std::uint16_t last) {
   const std::uint32_t sym = dec.decodeSymbol(m.used);
-  std::uint32_t v = (sym & 1) ? fold8(std::int32_t(dec.decodeSymbol(m.diff[0])) + (last & 255)) : (last & 0xFF);
+  std::uint32_t v =
+      (sym & 1) ? fold8(std::int32_t(dec.decodeSymbol(m.diff[0])) + (last & 255)) : (last & 0xFF);
   if (sym & 2)
     v |= std::uint32_t(fold8(std::int32_t(dec.decodeSymbol(m.diff[1])) + (last >> 8))) << 8;
   else
@@ -135,7 +138,8 @@ inline std::uint16_t decodeNir(ArithmeticDecoder& dec, NirModels& m, std::uint16
 }
 
 inline void encodeNir(ArithmeticEncoder& enc, NirModels& m, std::uint16_t last, std::uint16_t item) {
-  const std::uint32_t sym = ((last & 0x00FF) != (item & 0x00FF)) | (((last & 0xFF00) != (item & 0xFF00)) << 1);
+  const std::uint32_t sym =
+      ((last & 0x00FF) != (item & 0x00FF)) | (((last & 0xFF00) != (item & 0xFF00)) << 1);
   enc.encodeSymbol(m.used, sym);
   if (sym & 1) enc.encodeSymbol(m.diff[0], fold8(std::int32_t(item & 255) - (last & 255)));
   if (sym & 2) enc.encodeSymbol(m.diff[1], fold8(std::int32_t(item >> 8) - (last >> 8)));
@@ -239,7 +243,8 @@ inline void decodeGpsFull(ArithmeticDecoder& dec, IntegerCodec& ic, GpsState& s)
   s.extreme[s.last] = 0;
 }
 inline void encodeGpsFull(ArithmeticEncoder& enc, IntegerCodec& ic, GpsState& s, std::int64_t t) {
-  ic.compress(enc, std::int32_t(std::uint64_t(s.last_gps[s.last]) >> 32), std::int32_t(std::uint64_t(t) >> 32), 8);
+  ic.compress(enc, std::int32_t(std::uint64_t(s.last_gps[s.last]) >> 32),
+              std::int32_t(std::uint64_t(t) >> 32), 8);
   enc.writeInt(std::uint32_t(std::uint64_t(t)));
   s.next = (s.next + 1) & 3;
   s.last = s.next;

@@ -45,7 +45,9 @@ struct Point14 {
   std::uint16_t psid;
   std::int64_t gps;  ///< the double's bits
   bool gps_change;
-  std::uint32_t flags() const { return (std::uint32_t(edge) << 5) | (std::uint32_t(scan_dir) << 4) | class_flags; }
+  std::uint32_t flags() const {
+    return (std::uint32_t(edge) << 5) | (std::uint32_t(scan_dir) << 4) | class_flags;
+  }
 };
 
 void loadPoint14(const std::uint8_t* p, Point14& q) {
@@ -192,7 +194,18 @@ struct ContextBytes {
 };
 
 /// The layers of POINT14, in stream order.
-enum Layer14 { kXY, kZ, kClass, kFlags, kIntensity, kScanAngle, kUserData, kPointSource, kGpsTime, kLayers14 };
+enum Layer14 {
+  kXY,
+  kZ,
+  kClass,
+  kFlags,
+  kIntensity,
+  kScanAngle,
+  kUserData,
+  kPointSource,
+  kGpsTime,
+  kLayers14
+};
 
 struct Layout {
   bool rgb = false, nir = false;
@@ -222,7 +235,8 @@ class LayeredDecoder final : public ChunkDecoder {
     if (count == 0) return;
     readHeader(bytes, n, count);
     startContexts(out);
-    const unsigned rgb_at = kPoint14Size, extra_at = kPoint14Size + (layout_.rgb ? 6 : 0) + (layout_.nir ? 2 : 0);
+    const unsigned rgb_at = kPoint14Size,
+                   extra_at = kPoint14Size + (layout_.rgb ? 6 : 0) + (layout_.nir ? 2 : 0);
     for (std::uint64_t i = 1; i < count; ++i) {
       std::uint8_t* rec = out + i * record_length_;
       readPoint14(rec);
@@ -237,7 +251,8 @@ class LayeredDecoder final : public ChunkDecoder {
   void readHeader(const std::uint8_t* bytes, std::size_t n, std::uint64_t count) {
     const unsigned layers = layout_.layerCount();
     const std::size_t head = record_length_ + 4 + 4 * std::size_t(layers);
-    if (n < head) throw std::runtime_error("chunk of " + std::to_string(n) + " bytes is shorter than its header");
+    if (n < head)
+      throw std::runtime_error("chunk of " + std::to_string(n) + " bytes is shorter than its header");
     first_ = bytes;
     const std::uint32_t stored = loadLe<std::uint32_t>(bytes + record_length_);
     if (stored != count)
@@ -246,7 +261,8 @@ class LayeredDecoder final : public ChunkDecoder {
     std::size_t at = head;
     size_.assign(layers, 0);
     dec_.resize(layers);
-    for (unsigned k = 0; k < layers; ++k) size_[k] = loadLe<std::uint32_t>(bytes + record_length_ + 4 + 4 * k);
+    for (unsigned k = 0; k < layers; ++k)
+      size_[k] = loadLe<std::uint32_t>(bytes + record_length_ + 4 + 4 * k);
     for (unsigned k = 0; k < layers; ++k) {
       if (size_[k] > n - at)
         throw std::runtime_error("layer " + std::to_string(k) + " of " + std::to_string(size_[k]) +
@@ -267,7 +283,8 @@ class LayeredDecoder final : public ChunkDecoder {
     ctx_[cur_].start(p, true);
     std::uint16_t rgbn[4] = {0, 0, 0, 0};
     if (layout_.rgb)
-      for (int k = 0; k < (layout_.nir ? 4 : 3); ++k) rgbn[k] = loadLe<std::uint16_t>(first_ + kPoint14Size + 2 * k);
+      for (int k = 0; k < (layout_.nir ? 4 : 3); ++k)
+        rgbn[k] = loadLe<std::uint16_t>(first_ + kPoint14Size + 2 * k);
     rgb_[cur_].start(rgbn, true);
     const unsigned extra_at = kPoint14Size + (layout_.rgb ? 6 : 0) + (layout_.nir ? 2 : 0);
     bytes_[cur_].start(first_ + extra_at, layout_.extra, true);
@@ -306,7 +323,8 @@ void LayeredDecoder::readPoint14(std::uint8_t* rec) {
   ArithmeticDecoder& dxy = dec_[kXY];
   Context14* c = &ctx_[cur_];
   Point14* last = &c->last;
-  const unsigned lpr = (last->r == 1 ? 1u : 0u) + (last->r >= last->n ? 2u : 0u) + (last->gps_change ? 4u : 0u);
+  const unsigned lpr =
+      (last->r == 1 ? 1u : 0u) + (last->r >= last->n ? 2u : 0u) + (last->gps_change ? 4u : 0u);
   const std::uint32_t changed_values = dxy.decodeSymbol(c->m_changed[lpr]);
   if (changed_values & (1u << 6)) {
     const unsigned channel = (cur_ + dxy.decodeSymbol(c->m_channel) + 1) % 4;
@@ -321,16 +339,12 @@ void LayeredDecoder::readPoint14(std::uint8_t* rec) {
   const bool scan_change = changed_values & (1u << 3);
   const unsigned last_n = last->n, last_r = last->r;
   unsigned n = last_n, r = last_r;
-  if (changed_values & (1u << 2)) n = last->n = std::uint8_t(dxy.decodeSymbol(lazyModel(c->m_n[last_n], 16, true)));
+  if (changed_values & (1u << 2))
+    n = last->n = std::uint8_t(dxy.decodeSymbol(lazyModel(c->m_n[last_n], 16, true)));
   switch (changed_values & 3) {
-    case 0:
-      break;
-    case 1:
-      r = (last_r + 1) % 16;
-      break;
-    case 2:
-      r = (last_r + 15) % 16;
-      break;
+    case 0: break;
+    case 1: r = (last_r + 1) % 16; break;
+    case 2: r = (last_r + 15) % 16; break;
     default:
       if (gps_change)
         r = dxy.decodeSymbol(lazyModel(c->m_r[last_r], 16, true));
@@ -367,12 +381,14 @@ void LayeredDecoder::readPoint14(std::uint8_t* rec) {
   }
   if (changed(kIntensity)) {
     const unsigned s = (cpr << 1) | (gps_change ? 1u : 0u);
-    const std::uint16_t v = std::uint16_t(c->ic_intensity.decompress(dec_[kIntensity], c->last_intensity[s], cpr));
+    const std::uint16_t v =
+        std::uint16_t(c->ic_intensity.decompress(dec_[kIntensity], c->last_intensity[s], cpr));
     c->last_intensity[s] = v;
     last->intensity = v;
   }
   if (changed(kScanAngle) && scan_change)
-    last->scan_angle = std::int16_t(c->ic_scan_angle.decompress(dec_[kScanAngle], last->scan_angle, gps_change));
+    last->scan_angle =
+        std::int16_t(c->ic_scan_angle.decompress(dec_[kScanAngle], last->scan_angle, gps_change));
   if (changed(kUserData))
     last->user_data =
         std::uint8_t(dec_[kUserData].decodeSymbol(lazyModel(c->m_user[last->user_data / 4], 256, true)));
@@ -512,7 +528,8 @@ class LayeredEncoder final : public ChunkEncoder {
     ctx_[cur_].start(p, false);
     std::uint16_t rgbn[4] = {0, 0, 0, 0};
     if (layout_.rgb)
-      for (int k = 0; k < (layout_.nir ? 4 : 3); ++k) rgbn[k] = loadLe<std::uint16_t>(first + kPoint14Size + 2 * k);
+      for (int k = 0; k < (layout_.nir ? 4 : 3); ++k)
+        rgbn[k] = loadLe<std::uint16_t>(first + kPoint14Size + 2 * k);
     rgb_[cur_].start(rgbn, false);
     const unsigned extra_at = kPoint14Size + (layout_.rgb ? 6 : 0) + (layout_.nir ? 2 : 0);
     bytes_[cur_].start(first + extra_at, layout_.extra, false);
@@ -538,7 +555,8 @@ void LayeredEncoder::writePoint14(const std::uint8_t* rec) {
   ArithmeticEncoder& exy = enc_[kXY];
   Context14* c = &ctx_[cur_];
   const Point14* last = &c->last;
-  const unsigned lpr = (last->r == 1 ? 1u : 0u) + (last->r >= last->n ? 2u : 0u) + (last->gps_change ? 4u : 0u);
+  const unsigned lpr =
+      (last->r == 1 ? 1u : 0u) + (last->r >= last->n ? 2u : 0u) + (last->gps_change ? 4u : 0u);
   const unsigned channel = item.channel;
   if (channel != cur_ && !ctx_[channel].unused) last = &ctx_[channel].last;
   const bool psid_change = item.psid != last->psid;

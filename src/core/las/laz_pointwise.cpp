@@ -14,10 +14,10 @@ namespace laz {
 namespace {
 
 // LASzip's v2 return map (laszip_common_v2): r = return number, n = number of returns (0..7).
-const std::uint8_t kReturnMap[8][8] = {
-    {15, 14, 13, 12, 11, 10, 9, 8}, {14, 0, 1, 3, 6, 10, 10, 9},   {13, 1, 2, 4, 7, 11, 11, 10},
-    {12, 3, 4, 5, 8, 12, 12, 11},   {11, 6, 7, 8, 9, 13, 13, 12},  {10, 10, 11, 12, 13, 14, 14, 13},
-    {9, 10, 11, 12, 13, 14, 15, 14}, {8, 9, 10, 11, 12, 13, 14, 15}};
+const std::uint8_t kReturnMap[8][8] = {{15, 14, 13, 12, 11, 10, 9, 8},  {14, 0, 1, 3, 6, 10, 10, 9},
+                                       {13, 1, 2, 4, 7, 11, 11, 10},    {12, 3, 4, 5, 8, 12, 12, 11},
+                                       {11, 6, 7, 8, 9, 13, 13, 12},    {10, 10, 11, 12, 13, 14, 14, 13},
+                                       {9, 10, 11, 12, 13, 14, 15, 14}, {8, 9, 10, 11, 12, 13, 14, 15}};
 
 /// |n - r|, the v2 return level.
 inline unsigned returnLevel(unsigned n, unsigned r) {
@@ -127,7 +127,8 @@ class PointwiseDecoder final : public ChunkDecoder {
 
   void decode(const std::uint8_t* bytes, std::size_t n, std::uint64_t count, std::uint8_t* out) override {
     if (count == 0) return;
-    if (n < record_length_) throw std::runtime_error("chunk of " + std::to_string(n) + " bytes lacks its first point");
+    if (n < record_length_)
+      throw std::runtime_error("chunk of " + std::to_string(n) + " bytes lacks its first point");
     std::memcpy(out, bytes, record_length_);
     p10_.start(bytes, true);
     if (L_.gps) gps_.start(loadLe<std::int64_t>(bytes + L_.gps_at), true);
@@ -326,12 +327,14 @@ void PointwiseEncoder::writePoint10(const std::uint8_t* item) {
   const unsigned m = kReturnMap[n][r], l = returnLevel(n, r);
   // A decoder keeps the last point's intensity when nothing changed, and takes last_intensity[m]
   // when something else did: code the intensity whenever either would be wrong.
-  const std::uint16_t intensity = loadLe<std::uint16_t>(item + 12), last_intensity = loadLe<std::uint16_t>(last + 12);
+  const std::uint16_t intensity = loadLe<std::uint16_t>(item + 12),
+                      last_intensity = loadLe<std::uint16_t>(last + 12);
   const std::uint16_t psid = loadLe<std::uint16_t>(item + 18), last_psid = loadLe<std::uint16_t>(last + 18);
-  const std::uint32_t changed = (std::uint32_t(last[14] != item[14]) << 5) |
-                                (std::uint32_t(p.last_intensity[m] != intensity || last_intensity != intensity) << 4) |
-                                (std::uint32_t(last[15] != item[15]) << 3) | (std::uint32_t(last[16] != item[16]) << 2) |
-                                (std::uint32_t(last[17] != item[17]) << 1) | std::uint32_t(last_psid != psid);
+  const std::uint32_t changed =
+      (std::uint32_t(last[14] != item[14]) << 5) |
+      (std::uint32_t(p.last_intensity[m] != intensity || last_intensity != intensity) << 4) |
+      (std::uint32_t(last[15] != item[15]) << 3) | (std::uint32_t(last[16] != item[16]) << 2) |
+      (std::uint32_t(last[17] != item[17]) << 1) | std::uint32_t(last_psid != psid);
   enc_.encodeSymbol(p.m_changed, changed);
   if (changed & 32) enc_.encodeSymbol(lazy256(p.m_bit_byte[last[14]], false), item[14]);
   if (changed & 16) {
@@ -339,14 +342,17 @@ void PointwiseEncoder::writePoint10(const std::uint8_t* item) {
     p.last_intensity[m] = intensity;
   }
   if (changed & 8) enc_.encodeSymbol(lazy256(p.m_class[last[15]], false), item[15]);
-  if (changed & 4) enc_.encodeSymbol(p.m_scan_angle[(item[14] >> 6) & 1], fold8(std::int32_t(item[16]) - last[16]));
+  if (changed & 4)
+    enc_.encodeSymbol(p.m_scan_angle[(item[14] >> 6) & 1], fold8(std::int32_t(item[16]) - last[16]));
   if (changed & 2) enc_.encodeSymbol(lazy256(p.m_user[last[17]], false), item[17]);
   if (changed & 1) p.ic_psid.compress(enc_, last_psid, psid);
-  std::int32_t diff = std::int32_t(std::uint32_t(loadLe<std::int32_t>(item)) - std::uint32_t(loadLe<std::int32_t>(last)));
+  std::int32_t diff =
+      std::int32_t(std::uint32_t(loadLe<std::int32_t>(item)) - std::uint32_t(loadLe<std::int32_t>(last)));
   p.ic_dx.compress(enc_, p.median_x[m].get(), diff, n == 1);
   p.median_x[m].add(diff);
   unsigned k = p.ic_dx.k();
-  diff = std::int32_t(std::uint32_t(loadLe<std::int32_t>(item + 4)) - std::uint32_t(loadLe<std::int32_t>(last + 4)));
+  diff = std::int32_t(std::uint32_t(loadLe<std::int32_t>(item + 4)) -
+                      std::uint32_t(loadLe<std::int32_t>(last + 4)));
   p.ic_dy.compress(enc_, p.median_y[m].get(), diff, (n == 1) + (k < 20 ? (k & ~1u) : 20));
   p.median_y[m].add(diff);
   k = (p.ic_dx.k() + p.ic_dy.k()) / 2;
@@ -380,7 +386,8 @@ void PointwiseEncoder::writeGps(std::int64_t t) {
   for (std::uint32_t i = 1; i < 4; ++i) {
     std::int32_t other;
     if (!fits32(t, s.last_gps[(s.last + i) & 3], other)) continue;
-    enc_.encodeSymbol(zero_diff ? gps_.m_0diff : gps_.m_multi, zero_diff ? i + 2 : std::uint32_t(code_full) + i);
+    enc_.encodeSymbol(zero_diff ? gps_.m_0diff : gps_.m_multi,
+                      zero_diff ? i + 2 : std::uint32_t(code_full) + i);
     s.last = (s.last + i) & 3;
     writeGps(t);
     return;

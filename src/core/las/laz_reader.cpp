@@ -86,8 +86,9 @@ void LazChunks::readChunkTable(const LasHeader& h, std::uint64_t file_size) {
     table = loadLe<std::int64_t>(b8);
   }
   if (table < std::int64_t(data + 8) || std::uint64_t(table) + 8 > file_size)
-    throw LasError(path_ + ": corrupt chunk table: offset " + std::to_string(table) + " lies outside the file (" +
-                   std::to_string(file_size) + " bytes, points from " + std::to_string(data + 8) + ")");
+    throw LasError(path_ + ": corrupt chunk table: offset " + std::to_string(table) +
+                   " lies outside the file (" + std::to_string(file_size) + " bytes, points from " +
+                   std::to_string(data + 8) + ")");
   readExact(std::uint64_t(table), 8, b8, "the chunk table");
   const std::uint32_t version = loadLe<std::uint32_t>(b8), count = loadLe<std::uint32_t>(b8 + 4);
   if (version != 0) throw LasError(path_ + ": unknown chunk table version " + std::to_string(version));
@@ -95,7 +96,8 @@ void LazChunks::readChunkTable(const LasHeader& h, std::uint64_t file_size) {
   if (count > h.point_count || count > std::uint64_t(table) - data)
     throw LasError(path_ + ": corrupt chunk table: " + std::to_string(count) + " chunks for " +
                    std::to_string(h.point_count) + " points");
-  const std::uint64_t body = std::min<std::uint64_t>(file_size - std::uint64_t(table) - 8, 16 * std::uint64_t(count) + 64);
+  const std::uint64_t body =
+      std::min<std::uint64_t>(file_size - std::uint64_t(table) - 8, 16 * std::uint64_t(count) + 64);
   std::vector<std::uint8_t> bytes(body);
   readExact(std::uint64_t(table) + 8, bytes.size(), bytes.data(), "the chunk table");
   laz::ChunkTable t;
@@ -107,14 +109,16 @@ void LazChunks::readChunkTable(const LasHeader& h, std::uint64_t file_size) {
   first_.assign(1, 0);
   offset_.assign(1, data + 8);
   for (std::uint32_t c = 0; c < count; ++c) {
-    const std::uint64_t n = vlr_.variableChunks() ? t.counts[c]
-                                                  : std::min<std::uint64_t>(vlr_.chunk_size, h.point_count - first_[c]);
+    const std::uint64_t n = vlr_.variableChunks()
+                                ? t.counts[c]
+                                : std::min<std::uint64_t>(vlr_.chunk_size, h.point_count - first_[c]);
     if (offset_[c] + t.bytes[c] > std::uint64_t(table))
       throw LasError(path_ + ": corrupt chunk table: chunk " + std::to_string(c) + " of " +
                      std::to_string(t.bytes[c]) + " bytes runs past the table at " + std::to_string(table));
     if (n > kMaxChunkPoints)
-      throw LasError(path_ + ": corrupt chunk table: chunk " + std::to_string(c) + " claims " + std::to_string(n) +
-                     " points (at most " + std::to_string(kMaxChunkPoints) + " are accepted)");
+      throw LasError(path_ + ": corrupt chunk table: chunk " + std::to_string(c) + " claims " +
+                     std::to_string(n) + " points (at most " + std::to_string(kMaxChunkPoints) +
+                     " are accepted)");
     if (n == 0 || first_[c] + n > h.point_count)
       throw LasError(path_ + ": point count mismatch: chunk " + std::to_string(c) + " would hold points " +
                      std::to_string(first_[c]) + " + " + std::to_string(n) + ", the header announces " +

@@ -91,8 +91,10 @@ void LazWriter::writeHeader() {
   std::memcpy(b, "LASF", 4);
   b[24] = h_.version_major;
   b[25] = h_.version_minor;
-  std::strncpy(reinterpret_cast<char*>(b + 26), h_.system_id.empty() ? "pcl_delaunay_walk" : h_.system_id.c_str(), 31);
-  std::strncpy(reinterpret_cast<char*>(b + 58), h_.software.empty() ? "dw::las::LazWriter" : h_.software.c_str(), 31);
+  std::strncpy(reinterpret_cast<char*>(b + 26),
+               h_.system_id.empty() ? "pcl_delaunay_walk" : h_.system_id.c_str(), 31);
+  std::strncpy(reinterpret_cast<char*>(b + 58),
+               h_.software.empty() ? "dw::las::LazWriter" : h_.software.c_str(), 31);
   storeLe(b + 94, h_.header_size);
   storeLe(b + 96, h_.offset_to_points);
   storeLe(b + 100, h_.num_vlrs);

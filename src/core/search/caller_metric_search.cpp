@@ -32,7 +32,7 @@ struct Scratch {
 }  // namespace
 
 CallerMetricSearch::CallerMetricSearch(dw::DelaunayGraph::ConstPtr graph, std::vector<float> xyz,
-                     std::vector<std::int32_t> input_to_cloud)
+                                       std::vector<std::int32_t> input_to_cloud)
     : xyz_(std::move(xyz)), input_to_cloud_(std::move(input_to_cloud)), id_(nextQueryId()) {
   if (!graph) throw dw::Error("pcl::search::DelaunayWalk: no graph");
   if (xyz_.size() != 3 * graph->numInputPoints())
@@ -103,7 +103,7 @@ float CallerMetricSearch::tolerance(float d2, float q_extent) const {
 }
 
 bool CallerMetricSearch::locate(const float q[3], dw::StartStrategy strategy, dw::index_t hint, dw::Vec3f& ql,
-                       float& q_extent, dw::WalkResult& nn, CallerMetricSearchStats* stats) const {
+                                float& q_extent, dw::WalkResult& nn, CallerMetricSearchStats* stats) const {
   if (num_finite_ == 0 || !std::isfinite(q[0]) || !std::isfinite(q[1]) || !std::isfinite(q[2])) return false;
   ql = search_->graph().toLocal(q[0], q[1], q[2]);
   q_extent = std::max({std::fabs(ql.x), std::fabs(ql.y), std::fabs(ql.z)});
@@ -118,14 +118,14 @@ bool CallerMetricSearch::locate(const float q[3], dw::StartStrategy strategy, dw
 }
 
 void CallerMetricSearch::collect(const float q[3], const std::vector<dw::index_t>& inputs, std::size_t count,
-                        std::vector<WalkNeighbour>& out) const {
+                                 std::vector<WalkNeighbour>& out) const {
   out.clear();
   for (std::size_t i = 0; i < count; ++i)
     out.push_back({callerDistance(q, inputs[i]), cloudIndex(inputs[i])});
 }
 
-bool CallerMetricSearch::nearest(const float q[3], dw::StartStrategy strategy, dw::index_t hint, WalkNeighbour& out,
-                        CallerMetricSearchStats* stats) const {
+bool CallerMetricSearch::nearest(const float q[3], dw::StartStrategy strategy, dw::index_t hint,
+                                 WalkNeighbour& out, CallerMetricSearchStats* stats) const {
   dw::Vec3f ql;
   float qe = 0.f;
   dw::WalkResult nn;
@@ -186,8 +186,9 @@ bool CallerMetricSearch::nearest(const float q[3], dw::StartStrategy strategy, d
   return true;
 }
 
-std::size_t CallerMetricSearch::knn(const float q[3], std::size_t k, dw::StartStrategy strategy, dw::index_t hint,
-                           std::vector<WalkNeighbour>& out, CallerMetricSearchStats* stats) const {
+std::size_t CallerMetricSearch::knn(const float q[3], std::size_t k, dw::StartStrategy strategy,
+                                    dw::index_t hint, std::vector<WalkNeighbour>& out,
+                                    CallerMetricSearchStats* stats) const {
   out.clear();
   k = std::min(k, num_finite_);
   if (k == 0) return 0;
@@ -229,9 +230,10 @@ std::size_t CallerMetricSearch::knn(const float q[3], std::size_t k, dw::StartSt
   return out.size();
 }
 
-std::size_t CallerMetricSearch::radius(const float q[3], double radius, std::size_t max_nn, dw::StartStrategy strategy,
-                              dw::index_t hint, std::vector<WalkNeighbour>& out,
-                              CallerMetricSearchStats* stats) const {
+std::size_t CallerMetricSearch::radius(const float q[3], double radius, std::size_t max_nn,
+                                       dw::StartStrategy strategy, dw::index_t hint,
+                                       std::vector<WalkNeighbour>& out,
+                                       CallerMetricSearchStats* stats) const {
   out.clear();
   if (!(radius >= 0.0)) return 0;
   dw::Vec3f ql;

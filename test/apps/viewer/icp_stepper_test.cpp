@@ -220,7 +220,8 @@ TEST_F(IcpStepperTest, WalkPathIsTheWalk) {
     const dw::index_t s0 = search.startVertex(q, icp.startStrategy(), icp.hintsUsed()[i]);
     const auto drawn = dw_viewer::walkPath(g, q, s0);
     const dw::index_t matched = g.input_to_vertex[icp.correspondences()[i].index_match];
-    if (matched != drawn.back()) {  // only a near tie may end elsewhere (dw::CallerMetricSearch certifies in float)
+    if (matched !=
+        drawn.back()) {  // only a near tie may end elsewhere (dw::CallerMetricSearch certifies in float)
       EXPECT_NEAR(dw::squaredDistance(q, g.points[drawn.back()]), dw::squaredDistance(q, g.points[matched]),
                   1e-9f)
           << "source " << i;

@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "core/builder3d/triangulation_3d.h"
-#include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "core/util/space_filling_curve.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/core/graph/types.h"
 
 namespace b3d_test {

@@ -8,9 +8,9 @@
 #include <random>
 #include <vector>
 
-#include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "core/util/process_memory.h"
 #include "core/util/space_filling_curve.h"
+#include "pcl_delaunay_walk/core/graph/graph_builder.h"
 
 namespace {
 

@@ -8,10 +8,10 @@
 #include <numeric>
 #include <random>
 
-#include "core/util/parallel_sort.h"
 #include "builder3d_test_util.h"
-#include "core/builder3d/triangulation_3d.h"
 #include "core/builder3d/insertion_order.h"
+#include "core/builder3d/triangulation_3d.h"
+#include "core/util/parallel_sort.h"
 #include "core/util/space_filling_curve.h"
 
 namespace {

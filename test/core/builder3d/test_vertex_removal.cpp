@@ -9,9 +9,9 @@
 #include <random>
 
 #include "builder3d_test_util.h"
-#include "core/geometry/affine_span.h"
-#include "core/builder3d/triangulation_3d.h"
 #include "core/builder3d/insertion_order.h"
+#include "core/builder3d/triangulation_3d.h"
+#include "core/geometry/affine_span.h"
 #include "pcl_delaunay_walk/core/util/point_file.h"
 
 namespace {

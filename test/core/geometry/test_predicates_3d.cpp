@@ -10,8 +10,8 @@
 #include <cstring>
 #include <random>
 
-#include "pcl_delaunay_walk/core/geometry/predicates_3d.h"
 #include "core/geometry/predicates_3d_simd.h"
+#include "pcl_delaunay_walk/core/geometry/predicates_3d.h"
 
 namespace {
 

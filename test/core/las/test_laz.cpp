@@ -54,7 +54,8 @@ void expectRecordsEqual(const std::string& laz, const std::string& las) {
     chunks.decode(c, *decoder, compressed, records);
     const unsigned char* want = raw.data() + h.offset_to_points + chunks.firstPoint(c) * h.record_length;
     for (std::uint64_t i = 0; i < chunks.points(c); ++i)
-      if (std::memcmp(records.data() + i * h.record_length, want + i * h.record_length, h.record_length) != 0) {
+      if (std::memcmp(records.data() + i * h.record_length, want + i * h.record_length, h.record_length) !=
+          0) {
         if (mismatches++ < 3) ADD_FAILURE() << "chunk " << c << " point " << i << " differs";
       }
   }

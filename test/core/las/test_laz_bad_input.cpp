@@ -28,7 +28,8 @@ std::vector<unsigned char> readBytes(const std::string& p) {
   return std::vector<unsigned char>((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 void writeBytes(const std::string& p, const std::vector<unsigned char>& b) {
-  std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size()));
+  std::ofstream(p, std::ios::binary)
+      .write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size()));
 }
 
 /// A LAZ file of `format` with 20000 points in chunks of 5000.
@@ -158,7 +159,8 @@ TEST(LazBadInput, DecodersReportAStreamThatRunsOut) {
       ADD_FAILURE() << "half a chunk decoded without an error";
     } catch (const std::runtime_error& e) {
       const std::string msg = e.what();
-      EXPECT_TRUE(msg.find("runs out") != std::string::npos || msg.find("runs past") != std::string::npos) << msg;
+      EXPECT_TRUE(msg.find("runs out") != std::string::npos || msg.find("runs past") != std::string::npos)
+          << msg;
     }
   }
 }

@@ -57,19 +57,11 @@ std::vector<std::uint8_t> randomRecords(unsigned format, unsigned extra, std::si
     if (rng() % 9 == 0) r.user_data = std::uint8_t(rng());
     if (rng() % 11 == 0) r.point_source_id = std::uint16_t(rng());
     switch (rng() % 10) {  // GPS: regular pulses, repeats, a second sequence, huge jumps
-      case 0:
-        break;
-      case 1:
-        std::swap(gps, other_gps);
-        break;
-      case 2:
-        gps = double(rng() % 1000000000ull) * 1e-3;
-        break;
-      case 3:
-        gps += 1e-5 * double(rng() % 1000);
-        break;
-      default:
-        gps += 1e-5;
+      case 0: break;
+      case 1: std::swap(gps, other_gps); break;
+      case 2: gps = double(rng() % 1000000000ull) * 1e-3; break;
+      case 3: gps += 1e-5 * double(rng() % 1000); break;
+      default: gps += 1e-5;
     }
     r.gps_time = gps;
     for (auto& c : r.rgb)
@@ -117,7 +109,10 @@ TEST(LazRoundTrip, ConstantFieldsLeaveLayersEmptyAndStillDecode) {
   for (unsigned format : {1u, 8u}) {
     const unsigned len = unsigned(dw::las::baseRecordSize(format)) + 2;
     std::vector<std::uint8_t> records(1000 * len, 0);
-    for (std::size_t i = 0; i < 1000; ++i) { const std::int32_t x = std::int32_t(i); std::memcpy(records.data() + i * len, &x, 4); };
+    for (std::size_t i = 0; i < 1000; ++i) {
+      const std::int32_t x = std::int32_t(i);
+      std::memcpy(records.data() + i * len, &x, 4);
+    };
     const laz::LaszipVlr v = laz::defaultLaszipVlr(format, 2, 50000);
     std::vector<std::uint8_t> chunk, back(records.size());
     laz::makeChunkEncoder(v, len)->encode(records.data(), 1000, chunk);
@@ -138,7 +133,8 @@ TEST(LazRoundTrip, LazWriterFilesReadBackAsTheLasTwin) {
     dw::las::LasHeader h = dw::las::syntheticHeader(o);
     h.point_format = std::uint8_t(format);
     h.version_minor = format >= 6 ? 4 : 2;
-    const std::string las = tmpPath(std::to_string(format) + ".las"), lz = tmpPath(std::to_string(format) + ".laz");
+    const std::string las = tmpPath(std::to_string(format) + ".las"),
+                      lz = tmpPath(std::to_string(format) + ".laz");
     {
       dw::las::LasWriter a(las, h, 3);
       dw::las::LazWriter b(lz, h, 3, 25000);

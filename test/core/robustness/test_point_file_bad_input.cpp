@@ -7,8 +7,8 @@
 #include <fstream>
 #include <string>
 
-#include "pcl_delaunay_walk/core/util/point_file.h"
 #include "pcl_delaunay_walk/core/graph/types.h"
+#include "pcl_delaunay_walk/core/util/point_file.h"
 #include "robustness_util.h"
 
 using namespace dw;

@@ -12,9 +12,9 @@
 #include <vector>
 
 #include "core/tin/merge_scheduler.h"
-#include "pcl_delaunay_walk/core/util/parallel_for.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
 #include "tin_test_util.h"
 
 namespace {

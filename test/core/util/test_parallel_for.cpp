@@ -16,7 +16,6 @@
 #include <vector>
 
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
-#include "pcl_delaunay_walk/core/util/parallel_for.h"
 
 namespace {
 

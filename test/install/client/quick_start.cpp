@@ -1,9 +1,8 @@
 // The README's quick start, verbatim inside a function: it must compile against the installed package.
-#include <pcl_delaunay_walk/search/delaunay_walk.h>
-#include <pcl_delaunay_walk/registration/icp_delaunay_walk.h>
-
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
+#include <pcl_delaunay_walk/registration/icp_delaunay_walk.h>
+#include <pcl_delaunay_walk/search/delaunay_walk.h>
 
 std::size_t quickStart() {
   pcl::PointCloud<pcl::PointXYZ>::Ptr target(new pcl::PointCloud<pcl::PointXYZ>);

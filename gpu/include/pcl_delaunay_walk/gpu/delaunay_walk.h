@@ -7,9 +7,9 @@
 /// per directed edge, the neighbour index j (4 bytes instead of the core's 20-byte record), plus the
 /// neighbour's position inline where that fits L2. The walk compares squared distances
 /// |q - x_j|^2 < |q - x_i|^2 directly, which is the same exactness argument as the core's c > m test
-/// (docs/architecture.md, "Why the searches are exact"): in float where float decides with margin, otherwise in double from the float
-/// coordinates, the very comparison a brute-force search makes. Reported distances are the doubles
-/// rounded to float.
+/// (docs/architecture.md, "Why the searches are exact"): in float where float decides with margin, otherwise
+/// in double from the float coordinates, the very comparison a brute-force search makes. Reported distances
+/// are the doubles rounded to float.
 #pragma once
 
 #include <cuda_runtime_api.h>
@@ -122,8 +122,8 @@ class DelaunayWalk {
   /// \param[out] dist2 n*k squared distances; unused slots +inf
   /// \param[out] counts n: how many were found (min(k, finite inputs); 0 for a non-finite query)
   void knn(const DeviceBuffer<float4>& queries, unsigned k, const DeviceBuffer<std::uint32_t>* hints,
-           DeviceBuffer<std::uint32_t>& indices, DeviceBuffer<float>& dist2, DeviceBuffer<std::uint32_t>& counts,
-           cudaStream_t stream = nullptr) const;
+           DeviceBuffer<std::uint32_t>& indices, DeviceBuffer<float>& dist2,
+           DeviceBuffer<std::uint32_t>& counts, cudaStream_t stream = nullptr) const;
 
   /// \brief Input points within `radius` (dist2 <= radius^2, in double) of each query: the max_nn nearest of
   /// them, ascending. Output is bounded: n*max_nn slots, counts[i] says how many are valid. \param[in] radius

@@ -52,7 +52,8 @@ Eigen::Matrix<Scalar, 4, 4> toEigen(const dw::gpu::Matrix4d& m) {
 /// the GPU loop runs with exactly the criteria the CPU one would.
 /// \param[in] icp a pcl::IterativeClosestPoint (or subclass, e.g. the Delaunay-walk ICP)
 template <typename PointSource, typename PointTarget, typename Scalar>
-dw::gpu::IcpParameters parametersFrom(const pcl::IterativeClosestPoint<PointSource, PointTarget, Scalar>& icp) {
+dw::gpu::IcpParameters parametersFrom(
+    const pcl::IterativeClosestPoint<PointSource, PointTarget, Scalar>& icp) {
   // PCL's getters are not const-qualified in every version: read through a non-const reference.
   auto& r = const_cast<pcl::IterativeClosestPoint<PointSource, PointTarget, Scalar>&>(icp);
   dw::gpu::IcpParameters p;
@@ -72,7 +73,8 @@ dw::gpu::IcpParameters parametersFrom(const pcl::IterativeClosestPoint<PointSour
 /// \param[out] final_transformation the result as PCL returns it (getFinalTransformation())
 template <typename PointT, typename Scalar>
 dw::gpu::IcpResult align(dw::gpu::IterativeClosestPoint& icp, const pcl::PointCloud<PointT>& source,
-                const Eigen::Matrix<Scalar, 4, 4>& guess, Eigen::Matrix<Scalar, 4, 4>& final_transformation) {
+                         const Eigen::Matrix<Scalar, 4, 4>& guess,
+                         Eigen::Matrix<Scalar, 4, 4>& final_transformation) {
   icp.setInputSource(toPointView(source));
   const dw::gpu::IcpResult r = icp.align(fromEigen(guess));
   final_transformation = toEigen<Scalar>(r.transformation);

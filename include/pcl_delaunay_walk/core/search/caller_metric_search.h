@@ -43,7 +43,7 @@ class CallerMetricSearch {
   /// \param[in] xyz caller coordinates of the graph's input points, 3 floats each (NaN allowed)
   /// \param[in] input_to_cloud caller index of each graph input; empty means the identity
   CallerMetricSearch(dw::DelaunayGraph::ConstPtr graph, std::vector<float> xyz,
-            std::vector<std::int32_t> input_to_cloud);
+                     std::vector<std::int32_t> input_to_cloud);
 
   const dw::DelaunayGraph& graph() const { return search_->graph(); }
   const dw::DelaunayGraph::ConstPtr& graphPtr() const { return search_->graphPtr(); }

@@ -8,10 +8,10 @@
 namespace dw {
 
 enum class StartStrategy {
-  Zero,           ///< a fixed vertex: the one nearest the centroid
-  KdAnn,          ///< leaf of a k-d tree descent without backtracking
-  Pnn,            ///< the hint (the previous ICP correspondence); Zero when there is no hint
-  PnnOptimized,   ///< the hint when there is one, else KD-ANN (seed: KD-ANN first iteration, PNN after)
+  Zero,          ///< a fixed vertex: the one nearest the centroid
+  KdAnn,         ///< leaf of a k-d tree descent without backtracking
+  Pnn,           ///< the hint (the previous ICP correspondence); Zero when there is no hint
+  PnnOptimized,  ///< the hint when there is one, else KD-ANN (seed: KD-ANN first iteration, PNN after)
 };
 
 const char* toString(StartStrategy s);

@@ -1,9 +1,9 @@
 /// \file delaunay_tin.h
 /// \brief Parallel 2D Delaunay triangulation (TIN) of large point sets (seed: Song, Li, Liu): equal-count
 /// strips along the long axis (map), Bowyer-Watson per strip in parallel, adjacent strips merged
-/// pairwise as soon as both are done (reduce). The result is exactly the Delaunay triangulation of the distinct input
-/// points under exact predicates, with cocircular ties broken by a symbolic perturbation ranked by input
-/// index, so it does not depend on the number of threads or strips.
+/// pairwise as soon as both are done (reduce). The result is exactly the Delaunay triangulation of the
+/// distinct input points under exact predicates, with cocircular ties broken by a symbolic perturbation
+/// ranked by input index, so it does not depend on the number of threads or strips.
 #pragma once
 
 #include <cstddef>

@@ -7,8 +7,8 @@
 #include <chrono>
 #include <cmath>
 
-#include "pcl_delaunay_walk/core/util/parallel_for.h"
 #include "pcl_delaunay_walk/core/search/query_order.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
 #include "pcl_delaunay_walk/registration/correspondence_estimation_delaunay_walk.h"
 
 namespace pcl {
