@@ -1,9 +1,9 @@
 /// \file rank_block.h
 /// \brief One MPI rank's block of the distributed 3D graph builder: its own vertices plus a halo of
 /// cells that grows, fetched from the cells' owners, until every tetrahedron around the own vertices is
-/// certified (docs/mpi.md). The certification is that of builder3d/block_parallel_builder.cpp over the
-/// same CellGrid; what differs is that a cell's points must be fetched from its owners before they can
-/// be tested.
+/// certified (docs/mpi.md). The certification passes are core/builder3d/halo_certification.h's, as for
+/// the threads' blocks, over the same CellGrid; what differs is that a cell's points must be fetched
+/// from its owners before they can be tested.
 #pragma once
 
 #include <mpi.h>
@@ -19,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/builder3d/halo_certification.h"
 #include "core/builder3d/insertion_order.h"
 #include "core/builder3d/triangulation_3d.h"
 #include "core/geometry/rounded_circumsphere.h"
@@ -31,6 +32,7 @@ namespace dw {
 namespace mpi {
 namespace detail {
 
+using builder3d::HaloVerdict;
 using builder3d::RoundedCircumsphere;
 using builder3d::roundedCircumsphere;
 using builder3d::Triangulation3D;
@@ -105,8 +107,9 @@ struct MortonCellGrid : CellGrid {
 };
 
 /// One rank's block: its own vertices [first, last) (global ids), the cells it holds completely, the
-/// halo points it fetched, and its kernel. The certification is that of block_parallel_builder.cpp;
-/// what differs is that a cell's points must be fetched from its owners before they can be tested.
+/// halo points it fetched, and its kernel. The certification passes are those of the threads' blocks
+/// (halo_certification.h); what differs is that a cell's points must be fetched from its owners before
+/// they can be tested, and which conflicting points a failing tetrahedron inserts.
 class RankBlock {
  public:
   RankBlock(MPI_Comm comm, const MortonCellGrid& grid, const std::vector<std::uint64_t>& occupied,
@@ -184,7 +187,7 @@ class RankBlock {
   }
   std::size_t haloPoints() const { return halo_points_; }
   std::size_t fetchedPoints() const { return fetched_points_; }
-  std::size_t rounds() const { return rounds_; }
+  std::size_t rounds() const { return passes_.rounds(); }
   std::size_t exchanges() const { return exchanges_; }
   double exchangeSeconds() const { return exchange_s_; }
 
@@ -307,63 +310,32 @@ class RankBlock {
     exchange_s_ += since(t0);
   }
 
-  /// Collective certification passes (see block_parallel_builder.cpp for why only tetrahedra born since
-  /// the last pass, plus the pending ones, need a look). A tetrahedron whose ball reaches a cell not yet
-  /// fetched stays pending until the next pass, after the fetch.
+  /// Collective certification passes (core/builder3d/halo_certification.h). Local passes insert what
+  /// the known points say is missing until nothing local is left; the cells still to fetch accumulate
+  /// in `need` (one message round for all of them, not one per pass), and the tetrahedra that waited for
+  /// them are looked at again after the fetch.
   void grow() {
     std::vector<index_t> adds;
     std::vector<std::uint32_t> need;
-    std::vector<std::pair<std::size_t, std::array<index_t, 4>>> pending, still, waiting;
-    bool first = last_pass_ == kNoPass;
     for (;;) {
-      // Tetrahedra that waited for cells are looked at again once, after the fetch.
-      pending.insert(pending.end(), waiting.begin(), waiting.end());
-      waiting.clear();
-      // Local passes: insert what the known points say is missing until nothing local is left; the cells
-      // still to fetch accumulate in `need` (one message round for all of them, not one per pass).
+      passes_.recheckWaiting();
       need.clear();
-      std::size_t local_passes = 0;
-      for (;;) {
-        // A long tail of passes that each add a few points (a creeping seam) ends sooner with more
-        // points per tetrahedron; the first passes keep it small to keep the halo small.
-        per_tet_ = kPerTetrahedron << std::min<std::size_t>(local_passes / 16, 6);
-        adds.clear();
-        still.clear();
-        const std::uint32_t now = kernel_.clock();
-        auto check = [&](std::size_t t) {
-          const index_t* tv = kernel_.tetVertices(t);
-          if (tv[0] == Triangulation3D::kDead) return;
-          int mine = -1;
-          for (unsigned k = 0; k < 4; ++k) {
-            if (tv[k] == Triangulation3D::kInfinite) return;  // settled by the global hull
-            if (tv[k] >= first_ && tv[k] < last_) mine = static_cast<int>(k);
-          }
-          if (mine < 0) return;
-          const Ball b = conflictsInBall(tv, static_cast<unsigned>(mine), adds, need);
-          if (b == Ball::kConflict) still.push_back({t, {tv[0], tv[1], tv[2], tv[3]}});
-          if (b == Ball::kWaiting) waiting.push_back({t, {tv[0], tv[1], tv[2], tv[3]}});
-        };
-        if (kernel_.built()) {
-          const std::size_t slots = kernel_.tetSlots();
-          for (std::size_t t = 0; t < slots; ++t) {
-            if (first || kernel_.birth(t) > last_pass_) check(t);
-          }
-          for (const auto& p : pending) {
-            const index_t* tv = kernel_.tetVertices(p.first);
-            if (kernel_.birth(p.first) <= last_pass_ && std::equal(tv, tv + 4, p.second.begin()))
-              check(p.first);
-          }
-        }
-        last_pass_ = now;
-        first = false;
-        pending.swap(still);
-        ++local_passes;
-        if (adds.empty()) break;
-        ++rounds_;
-        std::sort(adds.begin(), adds.end());  // Morton order: short walks between insertions
-        for (index_t id : adds) kernel_.insert(id);
-        halo_points_ += adds.size();
-      }
+      passes_.run(
+          kernel_, first_, last_,
+          [&](const index_t* tv, unsigned own, std::size_t pass) {
+            // A long tail of passes that each add a few points (a creeping seam) ends sooner with more
+            // points per tetrahedron; the first passes keep it small to keep the halo small.
+            per_tet_ = kPerTetrahedron << std::min<std::size_t>(pass / 16, 6);
+            return conflictsInBall(tv, own, adds, need);
+          },
+          [&] {
+            std::sort(adds.begin(), adds.end());  // Morton order: short walks between insertions
+            for (index_t id : adds) kernel_.insert(id);
+            halo_points_ += adds.size();
+            const std::size_t inserted = adds.size();
+            adds.clear();
+            return inserted;
+          });
       // Everyone takes part in every exchange until no rank has cells left to ask for.
       int busy = need.empty() ? 0 : 1;
       MPI_Allreduce(MPI_IN_PLACE, &busy, 1, MPI_INT, MPI_MAX, comm_);
@@ -380,9 +352,8 @@ class RankBlock {
   /// drag in points no final tetrahedron uses; the tetrahedron is re-checked after the insertion).
   /// Says whether the tetrahedron is certified, conflicts with known points (re-checked next pass, if
   /// it survives), or waits for cells to arrive (re-checked after the next fetch).
-  enum class Ball { kCertified, kConflict, kWaiting };
-  Ball conflictsInBall(const index_t* tv, unsigned own, std::vector<index_t>& adds,
-                       std::vector<std::uint32_t>& need) {
+  HaloVerdict conflictsInBall(const index_t* tv, unsigned own, std::vector<index_t>& adds,
+                              std::vector<std::uint32_t>& need) {
     Tetrahedron t;
     t.v = tv;
     for (unsigned k = 0; k < 4; ++k) {
@@ -409,9 +380,9 @@ class RankBlock {
               for (int z = std::max(range[2][0], 4 * bz); z <= std::min(range[2][1], 4 * bz + 3); ++z)
                 waiting |= lookInCell(t, x, y, z, need);
         }
-    if (near_.empty()) return waiting ? Ball::kWaiting : Ball::kCertified;
+    if (near_.empty()) return waiting ? HaloVerdict::kWaiting : HaloVerdict::kCertified;
     takeNearest(adds);
-    return Ball::kConflict;
+    return HaloVerdict::kConflict;
   }
 
   /// A tetrahedron under certification: its vertices (ids and double coordinates), its rounded ball,
@@ -520,10 +491,9 @@ class RankBlock {
   /// (uniform: 1,500 passes); 4 keeps the halo near the minimum in a few dozen passes.
   static constexpr std::size_t kPerTetrahedron = 4;
   std::size_t per_tet_ = kPerTetrahedron;
-  static constexpr std::uint32_t kNoPass = 0xFFFFFFFFu;
-  std::uint32_t last_pass_ = kNoPass;
   Triangulation3D kernel_;
-  std::size_t halo_points_ = 0, fetched_points_ = 0, rounds_ = 0, exchanges_ = 0;
+  builder3d::HaloCertification passes_;
+  std::size_t halo_points_ = 0, fetched_points_ = 0, exchanges_ = 0;
   double exchange_s_ = 0;
 };
 }  // namespace detail

@@ -6,11 +6,12 @@
 #include <cmath>
 #include <exception>
 #include <limits>
-#include <thread>
 
 #include "core/geometry/rounded_circumsphere.h"
 #include "core/graph/cell_grid.h"
+#include "halo_certification.h"
 #include "insertion_order.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
 #include "triangulation_3d.h"
 
 namespace dw {
@@ -113,62 +114,40 @@ class Block {
   std::vector<std::pair<index_t, index_t>> edges() const { return kernel_.edgesFrom(first_, last_); }
   std::size_t haloPoints() const { return halo_points_; }
 
-  // Certification passes. A certified tetrahedron stays certified and alive (points are only added
-  // and none lies in its ball), and every point found in an uncertified one's ball is inserted,
-  // which destroys it unless that point lay only within the rounding margin. So a pass looks at the
-  // tetrahedra born since the previous pass, plus the few it left uncertified that are still there.
+  // Certification passes (halo_certification.h): a tetrahedron whose ball holds points of cells not
+  // yet held grows the halo by those whole cells; the global hull points already inserted are skipped.
   void grow() {
     std::vector<std::uint32_t> grown;
-    std::vector<std::pair<std::size_t, std::array<index_t, 4>>> pending, still;
-    bool first = last_pass_ == kNoPass;
-    for (;;) {
-      grown.clear();
-      still.clear();
-      const std::uint32_t now = kernel_.clock();
-      auto check = [&](std::size_t t) {
-        const index_t* tv = kernel_.tetVertices(t);
-        if (tv[0] == Triangulation3D::kDead) return;
-        bool mine = false, infinite = false;
-        for (unsigned k = 0; k < 4; ++k) {
-          if (tv[k] == Triangulation3D::kInfinite) {
-            infinite = true;
-          } else if (tv[k] >= first_ && tv[k] < last_) {
-            mine = true;
-          }
-        }
-        // Infinite tetrahedra are settled by the global hull (certify()).
-        if (!mine || infinite) return;
-        const std::size_t before = grown.size();
-        missingUnderBall(tv, grown);
-        if (grown.size() != before) still.push_back({t, {tv[0], tv[1], tv[2], tv[3]}});
-      };
-      const std::size_t slots = kernel_.tetSlots();
-      for (std::size_t t = 0; t < slots; ++t)
-        if (first || kernel_.birth(t) > last_pass_) check(t);
-      for (const auto& p : pending) {
-        const index_t* tv = kernel_.tetVertices(p.first);
-        if (kernel_.birth(p.first) <= last_pass_ && std::equal(tv, tv + 4, p.second.begin())) check(p.first);
-      }
-      last_pass_ = now;
-      first = false;
-      pending.swap(still);
-      if (grown.empty()) return;
-      ++rounds_;
-      std::vector<index_t> ids;
-      for (std::uint32_t c : grown)
-        for (std::uint32_t k = cells_.start[c]; k < cells_.start[c + 1]; ++k) {
-          const index_t id = cells_.members[k];
-          if (!std::binary_search(extra_.begin(), extra_.end(), id)) ids.push_back(id);
-        }
-      std::sort(ids.begin(), ids.end());  // Morton order: short walks between insertions
-      for (index_t id : ids) kernel_.insert(id);
-      halo_points_ += ids.size();
-    }
+    passes_.run(
+        kernel_, static_cast<index_t>(first_), static_cast<index_t>(last_),
+        [&](const index_t* tv, unsigned, std::size_t) {
+          const std::size_t before = grown.size();
+          missingUnderBall(tv, grown);
+          return grown.size() != before ? HaloVerdict::kConflict : HaloVerdict::kCertified;
+        },
+        [&] { return insertCells(grown); });
   }
 
-  std::size_t rounds() const { return rounds_; }
+  std::size_t rounds() const { return passes_.rounds(); }
 
  private:
+  // Inserts the points of the grown cells (in Morton order: short walks between insertions) and
+  // returns how many cells grew, which ends the passes when 0.
+  std::size_t insertCells(std::vector<std::uint32_t>& grown) {
+    std::vector<index_t> ids;
+    for (std::uint32_t c : grown)
+      for (std::uint32_t k = cells_.start[c]; k < cells_.start[c + 1]; ++k) {
+        const index_t id = cells_.members[k];
+        if (!std::binary_search(extra_.begin(), extra_.end(), id)) ids.push_back(id);
+      }
+    std::sort(ids.begin(), ids.end());
+    for (index_t id : ids) kernel_.insert(id);
+    halo_points_ += ids.size();
+    const std::size_t cells = grown.size();
+    grown.clear();
+    return cells;
+  }
+
   // Appends (and marks held) every cell not yet held that has a point inside the circumsphere of the
   // finite tetrahedron tv, enlarged by a bound on the rounding of its centre and radius. When none
   // has, every point of the ball is in the kernel: the tetrahedron is certified.
@@ -215,32 +194,17 @@ class Block {
   std::size_t first_, last_;
   std::vector<std::uint8_t> covered_;  // cells whose points are all in the kernel
   std::vector<index_t> extra_;         // global hull points inserted outside the held cells, sorted
-  static constexpr std::uint32_t kNoPass = 0xFFFFFFFFu;
-  std::uint32_t last_pass_ = kNoPass;  // kernel clock at the last certification pass
   Triangulation3D kernel_;
-  std::size_t halo_points_ = 0, rounds_ = 0;
+  HaloCertification passes_;
+  std::size_t halo_points_ = 0;
 };
 
+// One worker per block: the blocks are as many as the workers and of similar cost.
 template <class Fn>
-void parallelFor(std::size_t count, Fn&& fn) {
-  std::vector<std::exception_ptr> errors(count);
-  std::vector<std::thread> pool;
-  for (std::size_t b = 1; b < count; ++b)
-    pool.emplace_back([&, b] {
-      try {
-        fn(b);
-      } catch (...) {
-        errors[b] = std::current_exception();
-      }
-    });
-  try {
-    fn(0);
-  } catch (...) {
-    errors[0] = std::current_exception();
-  }
-  for (auto& t : pool) t.join();
-  for (auto& e : errors)
-    if (e) std::rethrow_exception(e);
+void forEachBlock(std::size_t count, Fn&& fn) {
+  parallelFor(count, static_cast<unsigned>(count), [&](std::size_t b, std::size_t e, unsigned) {
+    for (; b < e; ++b) fn(b);
+  });
 }
 
 }  // namespace
@@ -263,7 +227,7 @@ EdgeList blockParallelDelaunayEdges(const std::vector<Vec3f>& points, unsigned n
     blocks.emplace_back(points, cells, n * b / num_blocks, n * (b + 1) / num_blocks);
 
   // Map: every block triangulates its cells plus one ring.
-  parallelFor(num_blocks, [&](std::size_t b) { blocks[b].triangulate(); });
+  forEachBlock(num_blocks, [&](std::size_t b) { blocks[b].triangulate(); });
 
   // The global hull: its boundary points lie on some block's local hull boundary.
   std::vector<index_t> candidates;
@@ -290,7 +254,7 @@ EdgeList blockParallelDelaunayEdges(const std::vector<Vec3f>& points, unsigned n
 
   // Certify: grow halos until every tetrahedron around a block's own vertices is global.
   std::vector<std::vector<std::pair<index_t, index_t>>> parts(num_blocks);
-  parallelFor(num_blocks, [&](std::size_t b) {
+  forEachBlock(num_blocks, [&](std::size_t b) {
     blocks[b].certify(hull);
     parts[b] = blocks[b].edges();
   });
