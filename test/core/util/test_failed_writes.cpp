@@ -28,7 +28,7 @@ const dw::DelaunayGraph& graphOf(std::size_t n) {
   static std::map<std::size_t, dw::DelaunayGraph> cache;
   auto it = cache.find(n);
   if (it != cache.end()) return it->second;
-  std::mt19937 rng(unsigned(n));
+  std::mt19937 rng(static_cast<unsigned>(n));
   std::uniform_real_distribution<double> u(-10, 10);
   std::vector<double> xyz(3 * n);
   for (double& v : xyz) v = u(rng);

@@ -311,7 +311,7 @@ TEST(SafeOutputFile, TemporaryPathForALibraryThatTakesAPath) {
       throw;
     }
   });
-  dw_test::expectFailedWriteLeftTarget(child, "dem.tif", before, "library write failed", {"dem.tif"});
+  dw_test::expectFailedWriteLeftTarget(child, target, before, "library write failed", {"dem.tif"});
 }
 
 }  // namespace
