@@ -16,6 +16,7 @@
 #include <map>
 #include <mutex>
 #include <random>
+#include <system_error>
 #include <utility>
 
 #include "pcl_delaunay_walk/core/graph/types.h"
