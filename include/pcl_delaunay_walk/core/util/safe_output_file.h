@@ -23,8 +23,8 @@
 /// target as it was plus a stray `<target>.tmp.XXXXXX`. Each writer holds an advisory lock (flock) on
 /// its temporary while it lives, and the kernel drops it when the process dies; so the next open() of
 /// the same target removes every unlocked temporary of that target older than ten seconds (the age
-/// guards the instant between a live writer's create and lock). By hand:
-/// `find DIR -name '*.tmp.??????*' -mmin +10 -delete` (only with no writer running).
+/// guards the instant between a live writer's create and lock). By hand, with no writer running:
+/// `find DIR -regextype posix-extended -regex '.*\.tmp\.[A-Za-z0-9]{6}(\.[^./]+)?' -mmin +10 -delete`.
 #pragma once
 
 #include <cstdint>
