@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
+#include "pcl_delaunay_walk/core/util/safe_output_file.h"
 #include "viewer/cloud_input.h"
 #include "viewer/colour_map.h"
 #include "viewer/icp_stepper.h"
@@ -105,13 +106,18 @@ void fitCamera(Visualizer& viewer, const std::vector<float>& xyz, const Eigen::V
 }
 
 /// Renders a few frames (VTK needs more than one before the buffer holds the final picture) and
-/// writes the PNG; checks the file really appeared, since saveScreenshot does not report failure.
+/// writes the PNG to a temporary that replaces `path` only once written (saveScreenshot does not report
+/// failure, so an empty temporary counts as one and an existing `path` stays as it was).
 void writeScreenshot(Visualizer& viewer, const std::string& path) {
   for (int k = 0; k < 4; ++k) viewer.spinOnce(10, true);
-  std::remove(path.c_str());
-  viewer.saveScreenshot(path);
-  std::ifstream check(path, std::ios::binary | std::ios::ate);
-  if (!check || check.tellg() <= 0) throw dw::Error("dw_viewer: could not write the screenshot " + path);
+  const std::string tmp = dw::temporaryPathFor(path);
+  try {
+    viewer.saveScreenshot(tmp);
+    dw::commitTemporary(tmp, path);
+  } catch (const std::exception& e) {
+    dw::discardTemporary(tmp);
+    throw dw::Error(std::string("dw_viewer: could not write the screenshot: ") + e.what());
+  }
   std::cout << "screenshot written: " << path << "\n";
 }
 

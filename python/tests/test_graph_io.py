@@ -54,3 +54,42 @@ def test_corrupt_truncated_and_missing_files_raise(tmp_path):
     with pytest.raises(dw.Error):
         dw.DelaunayGraph.load(str(tmp_path / "missing.graph"))
     assert issubclass(dw.GraphFileError, RuntimeError)
+
+
+def test_failed_save_keeps_the_existing_file(tmp_path):
+    """A save that fails (past RLIMIT_FSIZE, in a forked child) raises dw.Error naming the file and
+    the reason, and leaves the existing file byte for byte with no temporary beside it."""
+    import os
+    import resource
+    import signal
+
+    g = dw.DelaunayGraph(np.random.default_rng(5).random((3000, 3)))
+    path = tmp_path / "existing.graph"
+    old = b"an existing graph file" * 100
+    path.write_bytes(old)
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: capped, so the write fails with EFBIG
+        os.close(r)
+        code = 0
+        try:
+            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+            resource.setrlimit(resource.RLIMIT_FSIZE, (64 * 1024, 64 * 1024))
+            g.save(str(path))
+        except dw.Error as e:
+            os.write(w, str(e).encode())
+            code = 1
+        except BaseException as e:  # noqa: BLE001 (reported to the parent)
+            os.write(w, repr(e).encode())
+            code = 2
+        os._exit(code)
+    os.close(w)
+    message = b""
+    while chunk := os.read(r, 4096):
+        message += chunk
+    os.close(r)
+    _, status = os.waitpid(pid, 0)
+    assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 1, message
+    assert str(path) in message.decode() and "File too large" in message.decode()
+    assert path.read_bytes() == old
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["existing.graph"]

@@ -8,6 +8,7 @@
 
 #include "manifest_file.h"
 #include "mpi/fault_injection.h"
+#include "pcl_delaunay_walk/core/util/safe_output_file.h"
 #include "pcl_delaunay_walk/mpi/distributed_graph.h"
 
 namespace dw {
@@ -71,16 +72,13 @@ std::uint64_t writeGraphPiece(const std::string& path, const RankGraph& part) {
   for (int a = 0; a < 3; ++a) h.origin[a] = fb ? G.origin[a] : part.origin[a];
   if (fb && part.rank != 0) h.num_vertices = h.num_originals = h.num_edges = 0;
 
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) throw Error(path + ": cannot open for writing");
-  bool ok = std::fwrite(&h, sizeof h, 1, f) == 1;
-  auto write = [&](const void* p, std::size_t n) { ok = ok && (n == 0 || std::fwrite(p, 1, n, f) == n); };
-  write(pts.data(), h.num_vertices * sizeof(Vec3f));
-  write(counts.data(), h.num_vertices * sizeof(index_t));
-  write(orig.data(), h.num_originals * sizeof(index_t));
-  write(edges.data(), h.num_edges * sizeof(edges[0]));
-  ok = std::fclose(f) == 0 && ok;
-  if (!ok) throw Error(path + ": write failed (disk full?)");
+  SafeOutputFile f(path);  // renamed over `path` only once complete
+  f.write(&h, sizeof h);
+  f.write(pts.data(), h.num_vertices * sizeof(Vec3f));
+  f.write(counts.data(), h.num_vertices * sizeof(index_t));
+  f.write(orig.data(), h.num_originals * sizeof(index_t));
+  f.write(edges.data(), h.num_edges * sizeof(edges[0]));
+  f.commit();
   return sizeof h + h.num_vertices * 16 + h.num_originals * 4 + h.num_edges * 8;
 }
 

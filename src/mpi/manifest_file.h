@@ -3,11 +3,10 @@
 /// and the write that readers never see half done (a temporary file renamed into place).
 #pragma once
 
-#include <cstdio>
-#include <fstream>
 #include <string>
 
 #include "pcl_delaunay_walk/core/graph/types.h"
+#include "pcl_delaunay_walk/core/util/safe_output_file.h"
 
 namespace dw {
 namespace mpi {
@@ -23,16 +22,12 @@ inline std::string jsonString(const std::string& s) {
   return o + "\"";
 }
 
-/// Writes `text` to path.tmp, then renames it to `path`: a manifest exists only once complete.
+/// Writes `text` to a temporary and renames it over `path` (dw::SafeOutputFile): a manifest exists
+/// only once complete, and a failed write leaves an earlier manifest as it was.
 inline void writeFileAtomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) throw Error(tmp + ": write failed");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) throw Error(path + ": rename failed");
+  SafeOutputFile out(path);
+  out.write(text.data(), text.size());
+  out.commit();
 }
 
 }  // namespace detail

@@ -9,6 +9,7 @@
 #include "manifest_file.h"
 #include "mpi/fault_injection.h"
 #include "pcl_delaunay_walk/core/tin/ply_writer.h"
+#include "pcl_delaunay_walk/core/util/safe_output_file.h"
 #include "pcl_delaunay_walk/mpi/distributed_tin.h"
 
 namespace dw {
@@ -57,8 +58,7 @@ class GidIndex {
 }  // namespace
 
 std::uint64_t writePiece(const std::string& path, const RankTin& t) {
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) throw Error(path + ": cannot open for writing");
+  SafeOutputFile f(path);  // renamed over `path` only once complete
   const std::size_t nv = t.coords.size(), nf = t.emitted.triangles.size() / 3;
   std::ostringstream hdr;
   hdr << "ply\nformat binary_little_endian 1.0\ncomment dw_tin_mpi piece of rank " << t.rank << " of "
@@ -66,11 +66,11 @@ std::uint64_t writePiece(const std::string& path, const RankTin& t) {
       << "\nproperty double x\nproperty double y\nproperty double z\nproperty uint gid\nelement face " << nf
       << "\nproperty list uchar int vertex_indices\nend_header\n";
   const std::string hs = hdr.str();
-  bool ok = std::fwrite(hs.data(), 1, hs.size(), f) == hs.size();
+  f.write(hs.data(), hs.size());
   std::vector<unsigned char> buf;
   buf.reserve(1 << 20);
   auto flush = [&]() {
-    ok = ok && std::fwrite(buf.data(), 1, buf.size(), f) == buf.size();
+    f.write(buf.data(), buf.size());
     buf.clear();
   };
   auto put = [&](const void* p, std::size_t n) {
@@ -93,8 +93,7 @@ std::uint64_t writePiece(const std::string& path, const RankTin& t) {
     }
   }
   flush();
-  ok = std::fclose(f) == 0 && ok;
-  if (!ok) throw Error(path + ": write failed (disk full?)");
+  f.commit();
   return nv;
 }
 

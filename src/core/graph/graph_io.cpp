@@ -5,6 +5,8 @@
 #include <fstream>
 #include <limits>
 
+#include "pcl_delaunay_walk/core/util/safe_output_file.h"
+
 namespace dw {
 
 namespace {
@@ -111,11 +113,13 @@ std::vector<std::uint8_t> serializeGraph(const DelaunayGraph& g) {
 
 void saveGraph(const DelaunayGraph& g, const std::string& path) {
   const auto bytes = serializeGraph(g);
-  std::ofstream f(path, std::ios::binary | std::ios::trunc);
-  if (!f) throw Error("pcl_delaunay_walk: cannot open '" + path + "' for writing");
-  f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-  f.close();
-  if (!f) throw Error("pcl_delaunay_walk: writing '" + path + "' failed (disk full?)");
+  try {
+    SafeOutputFile f(path);  // an existing file stays until the new one is complete (the rename)
+    f.write(bytes.data(), bytes.size());
+    f.commit();
+  } catch (const Error& e) {
+    throw Error(std::string("pcl_delaunay_walk: saving the graph failed: ") + e.what());
+  }
 }
 
 DelaunayGraph deserializeGraph(const std::uint8_t* data, std::size_t size) {

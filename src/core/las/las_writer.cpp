@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <exception>
 
 namespace dw {
 namespace las {
@@ -14,10 +15,22 @@ void put(unsigned char* p, T v) {
   std::memcpy(p, &v, sizeof v);
 }
 
+/// Runs f, turning the dw::Error of a failed file operation into the LasError this writer promises.
+template <typename F>
+void asLasError(F&& f) {
+  try {
+    f();
+  } catch (const LasError&) {
+    throw;
+  } catch (const Error& e) {
+    throw LasError(e.what());
+  }
+}
+
 }  // namespace
 
 LasWriter::LasWriter(const std::string& path, const LasHeader& header, unsigned extra_bytes)
-    : path_(path), h_(header), extra_(extra_bytes) {
+    : path_(path), uncaught_at_start_(std::uncaught_exceptions()), h_(header), extra_(extra_bytes) {
   if (h_.version_major != 1 || h_.version_minor > 4) throw LasError(path + ": can only write LAS 1.0-1.4");
   if (h_.point_format > 10) throw LasError(path + ": unknown point format");
   if (h_.point_format >= 6 && h_.version_minor < 4) throw LasError(path + ": formats 6-10 need LAS 1.4");
@@ -26,26 +39,23 @@ LasWriter::LasWriter(const std::string& path, const LasHeader& header, unsigned 
   h_.num_vlrs = 0;
   h_.record_length = static_cast<std::uint16_t>(baseRecordSize(h_.point_format) + extra_);
   h_.point_count = 0;
-  file_ = std::fopen(path.c_str(), "wb");
-  if (!file_) throw LasError(path + ": cannot open for writing");
+  asLasError([&] { out_.open(path); });
   writeHeader();
   rec_.resize(h_.record_length, 0);
 }
 
 LasWriter::~LasWriter() {
-  if (file_) {
-    try {
-      close();
-    } catch (...) {
-    }
+  if (closed_ || !out_.isOpen() || std::uncaught_exceptions() > uncaught_at_start_) return;  // discarded
+  try {
+    close();
+  } catch (...) {
   }
 }
 
 void LasWriter::write(const LasRecord& r) {
   encodeRecord(r, h_.point_format, rec_.data());
   std::memset(rec_.data() + baseRecordSize(h_.point_format), 0, extra_);
-  if (std::fwrite(rec_.data(), 1, rec_.size(), file_) != rec_.size())
-    throw LasError(path_ + ": write failed");
+  asLasError([&] { out_.write(rec_.data(), rec_.size()); });
   const std::int32_t v[3] = {r.X, r.Y, r.Z};
   for (int k = 0; k < 3; ++k) {
     lo_[k] = any_ ? std::min(lo_[k], v[k]) : v[k];
@@ -87,16 +97,17 @@ void LasWriter::writeHeader() {
     put(b + 247, h_.point_count);
     for (int k = 0; k < 15; ++k) put(b + 255 + 8 * k, by_return_[k]);
   }
-  if (std::fseek(file_, 0, SEEK_SET) != 0 || std::fwrite(b, 1, h_.header_size, file_) != h_.header_size)
-    throw LasError(path_ + ": header write failed");
+  asLasError([&] {
+    out_.seek(0);
+    out_.write(b, h_.header_size);
+  });
 }
 
 void LasWriter::close() {
-  if (!file_) return;
+  if (closed_) return;
   writeHeader();
-  const bool ok = std::fclose(file_) == 0;
-  file_ = nullptr;
-  if (!ok) throw LasError(path_ + ": close failed (disk full?)");
+  asLasError([&] { out_.commit(); });
+  closed_ = true;
 }
 
 }  // namespace las

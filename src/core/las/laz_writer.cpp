@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <exception>
 #include <stdexcept>
 
 #include "core/las/laz_codec.h"
@@ -15,9 +16,29 @@ namespace las {
 
 using laz::storeLe;
 
+namespace {
+
+/// Runs f, turning the dw::Error of a failed file operation into the LasError this writer promises.
+template <typename F>
+void asLasError(F&& f) {
+  try {
+    f();
+  } catch (const LasError&) {
+    throw;
+  } catch (const Error& e) {
+    throw LasError(e.what());
+  }
+}
+
+}  // namespace
+
 LazWriter::LazWriter(const std::string& path, const LasHeader& header, unsigned extra_bytes,
                      std::uint32_t chunk_size)
-    : path_(path), h_(header), extra_(extra_bytes), chunk_size_(std::max<std::uint32_t>(1, chunk_size)) {
+    : path_(path),
+      uncaught_at_start_(std::uncaught_exceptions()),
+      h_(header),
+      extra_(extra_bytes),
+      chunk_size_(std::max<std::uint32_t>(1, chunk_size)) {
   if (h_.version_major != 1 || h_.version_minor > 4) throw LasError(path + ": can only write LAS 1.0-1.4");
   if (h_.point_format >= 6 && h_.version_minor < 4) throw LasError(path + ": formats 6-10 need LAS 1.4");
   laz::LaszipVlr v;
@@ -34,8 +55,7 @@ LazWriter::LazWriter(const std::string& path, const LasHeader& header, unsigned 
   h_.point_count = 0;
   encoder_ = laz::makeChunkEncoder(v, h_.record_length);
   records_.resize(std::size_t(chunk_size_) * h_.record_length);
-  file_ = std::fopen(path.c_str(), "wb");
-  if (!file_) throw LasError(path + ": cannot open for writing");
+  asLasError([&] { out_.open(path); });
   writeHeader();
   std::uint8_t vh[54] = {0};
   std::strncpy(reinterpret_cast<char*>(vh + 2), "laszip encoded", 16);
@@ -49,16 +69,15 @@ LazWriter::LazWriter(const std::string& path, const LasHeader& header, unsigned 
 }
 
 LazWriter::~LazWriter() {
-  if (file_) {
-    try {
-      close();
-    } catch (...) {
-    }
+  if (closed_ || !out_.isOpen() || std::uncaught_exceptions() > uncaught_at_start_) return;  // discarded
+  try {
+    close();
+  } catch (...) {
   }
 }
 
 void LazWriter::put(const void* p, std::size_t n) {
-  if (n && std::fwrite(p, 1, n, file_) != n) throw LasError(path_ + ": write failed");
+  asLasError([&] { out_.write(p, n); });
 }
 
 void LazWriter::write(const LasRecord& r) {
@@ -114,26 +133,28 @@ void LazWriter::writeHeader() {
     storeLe(b + 247, h_.point_count);
     for (int k = 0; k < 15; ++k) storeLe(b + 255 + 8 * k, by_return_[k]);
   }
-  if (std::fseek(file_, 0, SEEK_SET) != 0) throw LasError(path_ + ": header write failed");
+  asLasError([&] { out_.seek(0); });
   put(b, h_.header_size);
 }
 
 void LazWriter::close() {
-  if (!file_) return;
+  if (closed_) return;
   flushChunk();
-  if (std::fseek(file_, 0, SEEK_END) != 0) throw LasError(path_ + ": seek failed");
-  const std::int64_t table_offset = std::int64_t(std::ftell(file_));
+  std::int64_t table_offset = 0;
+  asLasError([&] {
+    out_.seekToEnd();
+    table_offset = std::int64_t(out_.tell());
+  });
   laz::ChunkTable t;
   t.bytes = chunk_bytes_;
   t.counts = chunk_counts_;
   const std::vector<std::uint8_t> table = laz::encodeChunkTable(t, false);
   put(table.data(), table.size());
   writeHeader();
-  if (std::fseek(file_, h_.offset_to_points, SEEK_SET) != 0) throw LasError(path_ + ": seek failed");
+  asLasError([&] { out_.seek(h_.offset_to_points); });
   put(&table_offset, 8);
-  const bool ok = std::fclose(file_) == 0;
-  file_ = nullptr;
-  if (!ok) throw LasError(path_ + ": close failed (disk full?)");
+  asLasError([&] { out_.commit(); });
+  closed_ = true;
 }
 
 }  // namespace las

@@ -12,8 +12,7 @@ PlyMeshWriter::PlyMeshWriter(const std::string& path, std::uint64_t num_vertices
     : path_(path), nv_(num_vertices), nf_(num_faces), buf_(1 << 20) {
   if (num_vertices > 0x7FFFFFFFull)
     throw Error(path + ": PLY int32 indices cannot address that many vertices");
-  f_ = std::fopen(path.c_str(), "wb");
-  if (!f_) throw Error(path + ": cannot open for writing");
+  out_.open(path);
   std::string h = "ply\nformat binary_little_endian 1.0\n";
   for (const auto& c : comments) h += "comment " + c + "\n";
   h +=
@@ -22,20 +21,17 @@ PlyMeshWriter::PlyMeshWriter(const std::string& path, std::uint64_t num_vertices
   put(h.data(), h.size());
 }
 
-PlyMeshWriter::~PlyMeshWriter() {
-  if (f_) std::fclose(f_);
-}
+PlyMeshWriter::~PlyMeshWriter() = default;  // without close(): the temporary is removed
 
 void PlyMeshWriter::flush() {
-  if (used_ && std::fwrite(buf_.data(), 1, used_, f_) != used_)
-    throw Error(path_ + ": write failed (disk full?)");
+  out_.write(buf_.data(), used_);
   used_ = 0;
 }
 
 void PlyMeshWriter::put(const void* p, std::size_t n) {
   if (used_ + n > buf_.size()) flush();
   if (n > buf_.size()) {
-    if (std::fwrite(p, 1, n, f_) != n) throw Error(path_ + ": write failed (disk full?)");
+    out_.write(p, n);
     return;
   }
   std::memcpy(buf_.data() + used_, p, n);
@@ -61,12 +57,11 @@ void PlyMeshWriter::face(index_t a, index_t b, index_t c) {
 }
 
 void PlyMeshWriter::close() {
-  if (!f_) return;
+  if (closed_) return;
   if (wv_ != nv_ || wf_ != nf_) throw Error(path_ + ": PLY closed with missing vertices or faces");
   flush();
-  const bool ok = std::fclose(f_) == 0;
-  f_ = nullptr;
-  if (!ok) throw Error(path_ + ": close failed (disk full?)");
+  out_.commit();
+  closed_ = true;
 }
 
 std::uint64_t writeTinPly(const std::string& path, std::size_t n,

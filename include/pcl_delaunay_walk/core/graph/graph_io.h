@@ -14,7 +14,9 @@ namespace dw {
 
 constexpr std::uint32_t kGraphFileVersion = 1;
 
-/// Serialises to bytes / a file. Throws dw::Error on I/O failure.
+/// Serialises to bytes / a file. The file is written to a temporary beside `path` and renamed over it
+/// once complete (dw::SafeOutputFile): on an I/O failure dw::Error names the file and the reason, and
+/// an existing `path` is left as it was.
 std::vector<std::uint8_t> serializeGraph(const DelaunayGraph& graph);
 void saveGraph(const DelaunayGraph& graph, const std::string& path);
 

@@ -3,15 +3,16 @@
 /// items) and 6-8 (layered chunks, v3 items), with optional zero-filled extra bytes: the same
 /// interface as LasWriter. Records are buffered one chunk at a time, so memory stays a chunk's.
 /// laz-perf (LASzip compiled to WASM) decodes what it writes (test/core/las/laz_perf_check.js).
+/// As LasWriter, it writes a temporary that close() renames over `path` (dw::SafeOutputFile).
 #pragma once
 
 #include <cstdint>
-#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "pcl_delaunay_walk/core/las/las_format.h"
+#include "pcl_delaunay_walk/core/util/safe_output_file.h"
 
 namespace dw {
 namespace las {
@@ -22,16 +23,19 @@ class ChunkEncoder;
 
 class LazWriter {
  public:
-  /// Creates `path`. `header` gives version, point format, scale and offset; counts and bounds are
-  /// filled in by close(). `chunk_size` points per chunk (LASzip's default 50000).
+  /// Starts `path` (as a temporary beside it). `header` gives version, point format, scale and offset; counts
+  /// and bounds are filled in by close(). `chunk_size` points per chunk (LASzip's default 50000).
   LazWriter(const std::string& path, const LasHeader& header, unsigned extra_bytes = 0,
             std::uint32_t chunk_size = 50000);
+  /// As ~LasWriter: closes unless an exception is unwinding or a write failed (then `path` is left as
+  /// it was).
   ~LazWriter();
   LazWriter(const LazWriter&) = delete;
   LazWriter& operator=(const LazWriter&) = delete;
 
   void write(const LasRecord& r);
-  /// Writes the last chunk, the chunk table and the final header; throws LasError on I/O failure.
+  /// Writes the last chunk, the chunk table and the final header, then renames the file over `path`;
+  /// throws LasError naming the file and the reason on I/O failure (then `path` is untouched).
   void close();
 
  private:
@@ -39,7 +43,9 @@ class LazWriter {
   void writeHeader();
   void put(const void* p, std::size_t n);
   std::string path_;
-  std::FILE* file_ = nullptr;
+  SafeOutputFile out_;
+  int uncaught_at_start_ = 0;  ///< std::uncaught_exceptions() when constructed
+  bool closed_ = false;
   LasHeader h_;
   unsigned extra_;
   std::uint32_t chunk_size_;

@@ -1,15 +1,17 @@
 /// \file ply_writer.h
 /// \brief Streaming binary PLY writer for big triangle meshes: vertices and faces go straight from the
-/// caller's arrays to the file through one buffer (no mesh object in memory).
+/// caller's arrays to the file through one buffer (no mesh object in memory). The mesh goes to a
+/// temporary that close() renames over `path` (dw::SafeOutputFile): a writer destroyed without a
+/// successful close() leaves an existing `path` as it was.
 #pragma once
 
 #include <cstdint>
-#include <cstdio>
 #include <functional>
 #include <string>
 #include <vector>
 
 #include "pcl_delaunay_walk/core/graph/types.h"
+#include "pcl_delaunay_walk/core/util/safe_output_file.h"
 
 namespace dw {
 namespace tin {
@@ -26,14 +28,16 @@ class PlyMeshWriter {
 
   void vertex(double x, double y, double z);
   void face(index_t a, index_t b, index_t c);
-  /// Flushes and checks that exactly the announced numbers were written; throws dw::Error otherwise.
+  /// Checks that exactly the announced numbers were written, then flushes and renames the finished
+  /// file over `path`; throws dw::Error (naming the file and the reason) otherwise.
   void close();
 
  private:
   void put(const void* p, std::size_t n);
   void flush();
   std::string path_;
-  std::FILE* f_ = nullptr;
+  SafeOutputFile out_;
+  bool closed_ = false;
   std::uint64_t nv_, nf_, wv_ = 0, wf_ = 0;
   std::vector<unsigned char> buf_;
   std::size_t used_ = 0;
