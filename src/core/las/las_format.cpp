@@ -2,6 +2,7 @@
 /// \brief Record layouts of LAS point formats 0-10 (little-endian, as the format prescribes).
 #include "pcl_delaunay_walk/core/las/las_format.h"
 
+#include <algorithm>
 #include <cstring>
 
 namespace dw {
@@ -91,6 +92,48 @@ void encodeRecord(const LasRecord& r, unsigned format, unsigned char* p) {
   if (formatHasRgb(format))
     for (int k = 0; k < 3; ++k) put(p + 30 + 2 * k, r.rgb[k]);
   if (formatHasNir(format)) put(p + 36, r.nir);
+}
+
+void LasTally::add(const LasRecord& r) {
+  const std::int32_t v[3] = {r.X, r.Y, r.Z};
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = points ? std::min(lo[k], v[k]) : v[k];
+    hi[k] = points ? std::max(hi[k], v[k]) : v[k];
+  }
+  if (r.return_number >= 1 && r.return_number <= 15) ++by_return[r.return_number - 1];
+  ++points;
+}
+
+void encodeHeaderBlock(const LasHeader& h, const LasTally& t, bool compressed, const char* software,
+                       unsigned char out[375]) {
+  unsigned char b[375] = {0};
+  std::memcpy(b, "LASF", 4);
+  b[24] = h.version_major;
+  b[25] = h.version_minor;
+  std::strncpy(reinterpret_cast<char*>(b + 26),
+               h.system_id.empty() ? "pcl_delaunay_walk" : h.system_id.c_str(), 31);
+  std::strncpy(reinterpret_cast<char*>(b + 58), h.software.empty() ? software : h.software.c_str(), 31);
+  put(b + 94, h.header_size);
+  put(b + 96, h.offset_to_points);
+  put(b + 100, h.num_vlrs);
+  b[104] = static_cast<unsigned char>(compressed ? h.point_format | 0x80 : h.point_format);
+  put(b + 105, h.record_length);
+  // Legacy counts are 0 for formats 6-10 and for counts beyond 32 bits (LAS 1.4 rule).
+  const bool legacy_ok = h.point_format <= 5 && t.points <= 0xFFFFFFFFu;
+  put(b + 107, legacy_ok ? static_cast<std::uint32_t>(t.points) : std::uint32_t{0});
+  for (int k = 0; k < 5; ++k)
+    put(b + 111 + 4 * k, legacy_ok ? static_cast<std::uint32_t>(t.by_return[k]) : 0u);
+  for (int k = 0; k < 3; ++k) {
+    put(b + 131 + 8 * k, h.scale[k]);
+    put(b + 155 + 8 * k, h.offset[k]);
+    put(b + 179 + 16 * k, t.points ? t.hi[k] * h.scale[k] + h.offset[k] : 0.0);
+    put(b + 187 + 16 * k, t.points ? t.lo[k] * h.scale[k] + h.offset[k] : 0.0);
+  }
+  if (h.version_minor >= 4) {
+    put(b + 247, t.points);
+    for (int k = 0; k < 15; ++k) put(b + 255 + 8 * k, t.by_return[k]);
+  }
+  std::memcpy(out, b, std::min<std::size_t>(h.header_size, sizeof b));
 }
 
 }  // namespace las

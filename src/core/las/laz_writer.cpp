@@ -52,7 +52,6 @@ LazWriter::LazWriter(const std::string& path, const LasHeader& header, unsigned 
   h_.num_vlrs = 1;
   h_.offset_to_points = std::uint32_t(h_.header_size + 54 + vlr_.size());
   h_.record_length = static_cast<std::uint16_t>(baseRecordSize(h_.point_format) + extra_);
-  h_.point_count = 0;
   encoder_ = laz::makeChunkEncoder(v, h_.record_length);
   records_.resize(std::size_t(chunk_size_) * h_.record_length);
   asLasError([&] { out_.open(path); });
@@ -84,14 +83,7 @@ void LazWriter::write(const LasRecord& r) {
   std::uint8_t* rec = records_.data() + buffered_ * h_.record_length;
   encodeRecord(r, h_.point_format, rec);
   std::memset(rec + baseRecordSize(h_.point_format), 0, extra_);
-  const std::int32_t v[3] = {r.X, r.Y, r.Z};
-  for (int k = 0; k < 3; ++k) {
-    lo_[k] = any_ ? std::min(lo_[k], v[k]) : v[k];
-    hi_[k] = any_ ? std::max(hi_[k], v[k]) : v[k];
-  }
-  any_ = true;
-  if (r.return_number >= 1 && r.return_number <= 15) ++by_return_[r.return_number - 1];
-  ++h_.point_count;
+  tally_.add(r);
   if (++buffered_ == chunk_size_) flushChunk();
 }
 
@@ -106,33 +98,8 @@ void LazWriter::flushChunk() {
 }
 
 void LazWriter::writeHeader() {
-  unsigned char b[375] = {0};
-  std::memcpy(b, "LASF", 4);
-  b[24] = h_.version_major;
-  b[25] = h_.version_minor;
-  std::strncpy(reinterpret_cast<char*>(b + 26),
-               h_.system_id.empty() ? "pcl_delaunay_walk" : h_.system_id.c_str(), 31);
-  std::strncpy(reinterpret_cast<char*>(b + 58),
-               h_.software.empty() ? "dw::las::LazWriter" : h_.software.c_str(), 31);
-  storeLe(b + 94, h_.header_size);
-  storeLe(b + 96, h_.offset_to_points);
-  storeLe(b + 100, h_.num_vlrs);
-  b[104] = std::uint8_t(h_.point_format | 0x80);  // LASzip's compressed marker
-  storeLe(b + 105, h_.record_length);
-  // Legacy counts are 0 for formats 6-10 and for counts beyond 32 bits (LAS 1.4 rule).
-  const bool legacy_ok = h_.point_format <= 5 && h_.point_count <= 0xFFFFFFFFu;
-  storeLe(b + 107, legacy_ok ? std::uint32_t(h_.point_count) : std::uint32_t{0});
-  for (int k = 0; k < 5; ++k) storeLe(b + 111 + 4 * k, legacy_ok ? std::uint32_t(by_return_[k]) : 0u);
-  for (int k = 0; k < 3; ++k) {
-    storeLe(b + 131 + 8 * k, h_.scale[k]);
-    storeLe(b + 155 + 8 * k, h_.offset[k]);
-    storeLe(b + 179 + 16 * k, any_ ? hi_[k] * h_.scale[k] + h_.offset[k] : 0.0);
-    storeLe(b + 187 + 16 * k, any_ ? lo_[k] * h_.scale[k] + h_.offset[k] : 0.0);
-  }
-  if (h_.version_minor >= 4) {
-    storeLe(b + 247, h_.point_count);
-    for (int k = 0; k < 15; ++k) storeLe(b + 255 + 8 * k, by_return_[k]);
-  }
+  unsigned char b[375];
+  encodeHeaderBlock(h_, tally_, true, "dw::las::LazWriter", b);
   asLasError([&] { out_.seek(0); });
   put(b, h_.header_size);
 }

@@ -70,5 +70,20 @@ void decodeRecord(const unsigned char* p, unsigned format, LasRecord& r);
 /// Encodes one record; writes baseRecordSize(format) bytes (extra bytes are the caller's).
 void encodeRecord(const LasRecord& r, unsigned format, unsigned char* p);
 
+/// What a writer tallies over the records it wrote, for the header it finishes with: the point count,
+/// the bounds of the stored coordinates and the points per return number.
+struct LasTally {
+  std::uint64_t points = 0;
+  std::uint64_t by_return[15] = {0};
+  std::int32_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  void add(const LasRecord& r);
+};
+
+/// The public header block of `h` with the tally's counts and bounds: h.header_size (at most 375)
+/// bytes into `out`. `compressed` sets LASzip's marker bit on the point format; `software` names the
+/// writer when h.software is empty.
+void encodeHeaderBlock(const LasHeader& h, const LasTally& tally, bool compressed, const char* software,
+                       unsigned char out[375]);
+
 }  // namespace las
 }  // namespace dw

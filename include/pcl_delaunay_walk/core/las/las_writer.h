@@ -39,9 +39,7 @@ class LasWriter {
   bool closed_ = false;
   LasHeader h_;
   unsigned extra_;
-  std::uint64_t by_return_[15] = {0};
-  bool any_ = false;
-  std::int32_t lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};
+  LasTally tally_;
   std::vector<unsigned char> rec_;
 };
 

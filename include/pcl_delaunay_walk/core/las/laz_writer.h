@@ -54,9 +54,7 @@ class LazWriter {
   std::vector<std::uint8_t> records_, chunk_;
   std::size_t buffered_ = 0;
   std::vector<std::uint64_t> chunk_bytes_, chunk_counts_;
-  std::uint64_t by_return_[15] = {0};
-  bool any_ = false;
-  std::int32_t lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};
+  LasTally tally_;
 };
 
 }  // namespace las
