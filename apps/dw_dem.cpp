@@ -80,7 +80,9 @@ Arguments parseArguments(int argc, char** argv) {
       a.resolution = parseNumber(s, value());
       if (!(a.resolution > 0)) throw dw::Error("--resolution must be positive");
     } else if (s == "--class") {
-      a.cls = int(dw_apps::parseList(value(), "class", 0, 255)[0]);
+      const auto v = dw_apps::parseList(value(), "class", 0, 255);
+      if (v.size() != 1) throw dw::Error("--class takes one class code");
+      a.cls = int(v[0]);
     } else if (s == "--bounds") {
       for (double& b : a.bounds) b = parseNumber(s, value());
       a.has_bounds = true;
@@ -100,7 +102,9 @@ Arguments parseArguments(int argc, char** argv) {
     } else if (s == "--hillshade") {
       a.hillshade = value();
     } else if (s == "--threads") {
-      a.threads = dw_apps::parseList(value(), "thread count", 1, 4096)[0];
+      const auto v = dw_apps::parseList(value(), "thread count", 1, 4096);
+      if (v.size() != 1) throw dw::Error("--threads takes one count");
+      a.threads = v[0];
     } else if (s == "--certify") {
       a.certify = true;
     } else if (s == "--quiet") {
