@@ -27,22 +27,23 @@
 namespace {
 
 void usage() {
-  std::fprintf(stderr,
-               "usage: dw_dem input.{las,laz} -o out.tif --resolution R [options]\n"
-               "  TIN-linear DEM of the points: the Delaunay TIN interpolated at every cell centre.\n"
-               "  --class C            keep points of classification C (2 = ground: a DTM; default all: a DSM)\n"
-               "  --bounds X0 Y0 X1 Y1 the raster's west, south, east, north edges (default: the points'\n"
-               "                       bounding box, widened to multiples of R)\n"
-               "  --max-edge L         leave nodata under triangles with an edge longer than L\n"
-               "  --value z|intensity  what is interpolated (default z)\n"
-               "  --nodata V           nodata value (default -9999)\n"
-               "  --float64            Float64 cells (default Float32)\n"
-               "  --compress C         DEFLATE (default), LZW, ZSTD or NONE\n"
-               "  --cog                a Cloud-Optimized GeoTIFF\n"
-               "  --hillshade OUT.png  also write a hillshade preview\n"
-               "  --threads N          threads (default: all cores)\n"
-               "  --certify            check the TIN with the exact Delaunay certificate first\n"
-               "  --quiet              no progress output\n");
+  std::fprintf(
+      stderr,
+      "usage: dw_dem input.{las,laz} -o out.tif --resolution R [options]\n"
+      "  TIN-linear DEM of the points: the Delaunay TIN interpolated at every cell centre.\n"
+      "  --class C            keep points of classification C (2 = ground: a DTM; default all: a DSM)\n"
+      "  --bounds X0 Y0 X1 Y1 the raster's west, south, east, north edges (default: the points'\n"
+      "                       bounding box, widened to multiples of R)\n"
+      "  --max-edge L         leave nodata under triangles with an edge longer than L\n"
+      "  --value z|intensity  what is interpolated (default z)\n"
+      "  --nodata V           nodata value (default -9999)\n"
+      "  --float64            Float64 cells (default Float32)\n"
+      "  --compress C         DEFLATE (default), LZW, ZSTD or NONE\n"
+      "  --cog                a Cloud-Optimized GeoTIFF\n"
+      "  --hillshade OUT.png  also write a hillshade preview\n"
+      "  --threads N          threads (default: all cores)\n"
+      "  --certify            check the TIN with the exact Delaunay certificate first\n"
+      "  --quiet              no progress output\n");
 }
 
 double since(std::chrono::steady_clock::time_point t) {
@@ -52,7 +53,8 @@ double since(std::chrono::steady_clock::time_point t) {
 double parseNumber(const std::string& opt, const char* v) {
   char* end = nullptr;
   const double x = std::strtod(v, &end);
-  if (!end || end == v || *end || !std::isfinite(x)) throw dw::Error("bad value '" + std::string(v) + "' for " + opt);
+  if (!end || end == v || *end || !std::isfinite(x))
+    throw dw::Error("bad value '" + std::string(v) + "' for " + opt);
   return x;
 }
 
@@ -169,7 +171,8 @@ Frame frameOf(const dw::las::LasHeader& h, std::vector<double>& x, std::vector<d
 }
 
 dw::dem::RasterGrid worldGrid(const Arguments& a, const dw::las::LasCloud& las) {
-  if (a.has_bounds) return dw::dem::gridFromBounds(a.bounds[0], a.bounds[1], a.bounds[2], a.bounds[3], a.resolution);
+  if (a.has_bounds)
+    return dw::dem::gridFromBounds(a.bounds[0], a.bounds[1], a.bounds[2], a.bounds[3], a.resolution);
   double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
   for (std::size_t i = 0; i < las.size(); ++i) {
     const double p[2] = {las.x(i), las.y(i)};
@@ -182,7 +185,8 @@ std::string crsOf(const Arguments& a) {
   std::string source;
   try {
     const std::string wkt = dw::gdal::srsWktFromLas(dw::las::readLasCrs(a.in), &source);
-    if (!a.quiet) std::fprintf(stderr, "coordinate system: %s\n", wkt.empty() ? "none in the file" : source.c_str());
+    if (!a.quiet)
+      std::fprintf(stderr, "coordinate system: %s\n", wkt.empty() ? "none in the file" : source.c_str());
     return wkt;
   } catch (const dw::gdal::RasterError& e) {
     std::fprintf(stderr, "warning: %s: %s; the raster gets no coordinate system\n", a.in.c_str(), e.what());
@@ -200,7 +204,8 @@ int run(const Arguments& a) {
   const dw::las::LasCloud las = dw::las::readLasFile(a.in, lo);
   const std::size_t n = las.size();
   if (n == 0)
-    throw dw::Error(a.in + ": no points" + (a.cls >= 0 ? " of class " + std::to_string(a.cls) : std::string()));
+    throw dw::Error(a.in + ": no points" +
+                    (a.cls >= 0 ? " of class " + std::to_string(a.cls) : std::string()));
   const std::string wkt = crsOf(a);
   const double t_read = since(t0);
 
@@ -212,10 +217,12 @@ int run(const Arguments& a) {
   if (!a.quiet) to.progress = [](const std::string& stage, double f) { progress(stage, f); };
   const dw::tin::TinResult tin = dw::tin::triangulate(x.data(), y.data(), n, to);
   const double t_tin = since(t1);
-  if (tin.degenerate) std::fprintf(stderr, "warning: the points are collinear: no triangle, the raster is all nodata\n");
+  if (tin.degenerate)
+    std::fprintf(stderr, "warning: the points are collinear: no triangle, the raster is all nodata\n");
   if (a.certify) {
     const auto c = dw::tin::certifyDelaunay(x.data(), y.data(), n, tin.triangles, tin.num_vertices);
-    std::fprintf(stderr, "certificate: %s (%zu interior edges locally Delaunay)\n", c.message.c_str(), c.interior_edges);
+    std::fprintf(stderr, "certificate: %s (%zu interior edges locally Delaunay)\n", c.message.c_str(),
+                 c.interior_edges);
     if (!c.ok) return 2;
   }
 
@@ -233,7 +240,8 @@ int run(const Arguments& a) {
   ro.num_threads = a.threads;
   if (!a.quiet) ro.progress = [](double f) { progress("raster", f); };
   dw::dem::TinRasterStats rs;
-  const std::vector<double> raster = dw::dem::rasterizeTin(x.data(), y.data(), value.data(), n, tin.triangles, fgrid, ro, &rs);
+  const std::vector<double> raster =
+      dw::dem::rasterizeTin(x.data(), y.data(), value.data(), n, tin.triangles, fgrid, ro, &rs);
   const double t_raster = since(t2);
 
   const auto t3 = std::chrono::steady_clock::now();
@@ -251,11 +259,13 @@ int run(const Arguments& a) {
   const double t_write = since(t3), total = since(t0);
 
   const long peak = dw::processStatusKb("VmHWM:");
-  std::printf("points %zu (distinct %zu)  triangles %zu  killed %zu  raster %zu x %zu (%.6g units)  cells set %zu of %zu\n",
-              n, tin.num_vertices, tin.numTriangles(), rs.triangles_killed, grid.cols, grid.rows, grid.cell,
-              rs.cells_set, grid.size());
-  std::printf("threads %u  read %.3f s  triangulate %.3f s  raster %.3f s  write %.3f s  total %.3f s\n", a.threads,
-              t_read, t_tin, t_raster, t_write, total);
+  std::printf(
+      "points %zu (distinct %zu)  triangles %zu  killed %zu  raster %zu x %zu (%.6g units)  cells set %zu of "
+      "%zu\n",
+      n, tin.num_vertices, tin.numTriangles(), rs.triangles_killed, grid.cols, grid.rows, grid.cell,
+      rs.cells_set, grid.size());
+  std::printf("threads %u  read %.3f s  triangulate %.3f s  raster %.3f s  write %.3f s  total %.3f s\n",
+              a.threads, t_read, t_tin, t_raster, t_write, total);
   std::printf("peak memory %.1f MB  wrote %s%s%s\n", peak / 1024.0, a.out.c_str(),
               a.hillshade.empty() ? "" : " and ", a.hillshade.c_str());
   return 0;

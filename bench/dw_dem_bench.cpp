@@ -36,7 +36,7 @@ double cpuNow() {
 
 struct Points {
   std::vector<double> fx, fy, wx, wy, z;  // LAS-integer frame, world coordinates, heights
-  double k = 1, off_x = 0, off_y = 0;      // world = frame * k + offset
+  double k = 1, off_x = 0, off_y = 0;     // world = frame * k + offset
   std::string name;
 };
 
@@ -58,7 +58,8 @@ Points load(const std::string& las_path, int cls, std::uint64_t n) {
     });
     p.name = "synthetic " + std::to_string(n) + (cls >= 0 ? " class " + std::to_string(cls) : std::string());
   }
-  if (las.header.scale[0] != las.header.scale[1]) throw dw::Error("unequal x and y scales are not benchmarked");
+  if (las.header.scale[0] != las.header.scale[1])
+    throw dw::Error("unequal x and y scales are not benchmarked");
   p.k = las.header.scale[0], p.off_x = las.header.offset[0], p.off_y = las.header.offset[1];
   for (std::size_t i = 0; i < las.size(); ++i) {
     p.fx.push_back(las.X[i]), p.fy.push_back(las.Y[i]);
@@ -82,13 +83,20 @@ int main(int argc, char** argv) {
         if (i + 1 >= argc) throw dw::Error("missing value after " + a);
         return argv[++i];
       };
-      if (a == "--las") las = value();
-      else if (a == "--class") cls = int(dw_apps::parseList(value(), "class", 0, 255)[0]);
-      else if (a == "-n") n = dw_apps::parseCount(value(), "point count");
-      else if (a == "--resolution") res = dw_apps::parseNonNegative(value(), "resolution");
-      else if (a == "--threads") threads = dw_apps::parseList(value(), "thread count", 1, 1024)[0];
-      else if (a == "--repeats") repeats = dw_apps::parseList(value(), "repeat count", 1, 100)[0];
-      else throw dw::Error("unknown option " + a);
+      if (a == "--las")
+        las = value();
+      else if (a == "--class")
+        cls = int(dw_apps::parseList(value(), "class", 0, 255)[0]);
+      else if (a == "-n")
+        n = dw_apps::parseCount(value(), "point count");
+      else if (a == "--resolution")
+        res = dw_apps::parseNonNegative(value(), "resolution");
+      else if (a == "--threads")
+        threads = dw_apps::parseList(value(), "thread count", 1, 1024)[0];
+      else if (a == "--repeats")
+        repeats = dw_apps::parseList(value(), "repeat count", 1, 100)[0];
+      else
+        throw dw::Error("unknown option " + a);
     }
     if (!(res > 0)) throw dw::Error("--resolution must be positive");
     const Points p = load(las, cls, n);
@@ -102,8 +110,8 @@ int main(int argc, char** argv) {
     const dw::dem::RasterGrid g = dw::dem::alignedGridCovering(lo[0], lo[1], hi[0], hi[1], res);
     dw::dem::RasterGrid fg = g;
     fg.west = (g.west - p.off_x) / p.k, fg.north = (g.north - p.off_y) / p.k, fg.cell = g.cell / p.k;
-    std::printf("input: %s, %zu points; grid %zu x %zu = %zu cells of %g; %u threads, best of %u\n", p.name.c_str(), m,
-                g.cols, g.rows, g.size(), res, threads, repeats);
+    std::printf("input: %s, %zu points; grid %zu x %zu = %zu cells of %g; %u threads, best of %u\n",
+                p.name.c_str(), m, g.cols, g.rows, g.size(), res, threads, repeats);
 
     const double nodata = -9999;
     std::vector<double> ours, theirs(g.size());
@@ -122,8 +130,8 @@ int main(int argc, char** argv) {
       c_ours = std::min(c_ours, cpuNow() - c0);
       if (t2 - t0 < t_ours) t_ours = t2 - t0, t_tin = t1 - t0, t_raster = t2 - t1;
     }
-    std::printf("dw (triangulate + rasterise): wall %.3f s (%.3f + %.3f), cpu %.3f s\n", t_ours, t_tin, t_raster,
-                c_ours);
+    std::printf("dw (triangulate + rasterise): wall %.3f s (%.3f + %.3f), cpu %.3f s\n", t_ours, t_tin,
+                t_raster, c_ours);
 
     // GDAL on coordinates centred on the grid: on raw projected coordinates its qhull triangulation
     // overlaps itself (docs/dem.md), and the centring is outside the timing, as for us the frame.
@@ -139,9 +147,9 @@ int main(int argc, char** argv) {
     double t_gdal = HUGE_VAL, c_gdal = HUGE_VAL;
     for (unsigned r = 0; r < repeats; ++r) {
       const double t0 = now(), c0 = cpuNow();
-      if (GDALGridCreate(GGA_Linear, &go, GUInt32(m), gx.data(), gy.data(), p.z.data(), g.west - cx, g.east() - cx,
-                         g.north - cy, g.south() - cy, GUInt32(g.cols), GUInt32(g.rows), GDT_Float64, theirs.data(),
-                         nullptr, nullptr) != CE_None)
+      if (GDALGridCreate(GGA_Linear, &go, GUInt32(m), gx.data(), gy.data(), p.z.data(), g.west - cx,
+                         g.east() - cx, g.north - cy, g.south() - cy, GUInt32(g.cols), GUInt32(g.rows),
+                         GDT_Float64, theirs.data(), nullptr, nullptr) != CE_None)
         throw dw::Error(std::string("GDALGridCreate failed: ") + CPLGetLastErrorMsg());
       t_gdal = std::min(t_gdal, now() - t0);
       c_gdal = std::min(c_gdal, cpuNow() - c0);
@@ -157,8 +165,8 @@ int main(int argc, char** argv) {
         max_diff = std::max(max_diff, d);
         off += d > 1e-6 * (zhi - zlo);
       }
-    std::printf("cells both define %zu; differing by more than 1e-6 of the z range %zu (max |diff| %.3g)\n", both, off,
-                max_diff);
+    std::printf("cells both define %zu; differing by more than 1e-6 of the z range %zu (max |diff| %.3g)\n",
+                both, off, max_diff);
     std::printf("ratio gdal / dw: wall %.1fx, cpu %.1fx\n", t_gdal / t_ours, c_gdal / c_ours);
     return 0;
   } catch (const std::exception& e) {

@@ -62,7 +62,8 @@ struct GeoTiffWriter::Impl {
   }
 };
 
-GeoTiffWriter::GeoTiffWriter(const std::string& path, const dem::RasterGrid& grid, const GeoTiffOptions& options)
+GeoTiffWriter::GeoTiffWriter(const std::string& path, const dem::RasterGrid& grid,
+                             const GeoTiffOptions& options)
     : impl_(std::make_unique<Impl>(path, grid, options)) {
   if (grid.cols == 0 || grid.rows == 0 || !(grid.cell > 0))
     throw RasterError(path + ": cannot write an empty raster grid");
@@ -80,12 +81,15 @@ GeoTiffWriter::GeoTiffWriter(const std::string& path, const dem::RasterGrid& gri
     co.set("COMPRESS", "LZW");  // the intermediate: quick to write, read once by the COG copy
   } else {
     co.set("COMPRESS", compress);
-    if (compress != "NONE") co.set("PREDICTOR", "3");  // floating-point predictor: neighbours' bits differ little
+    if (compress != "NONE")
+      co.set("PREDICTOR", "3");  // floating-point predictor: neighbours' bits differ little
   }
   const GDALDataType type = options.float64 ? GDT_Float64 : GDT_Float32;
   Impl& m = *impl_;
-  m.ds = GDALCreate(driver("GTiff", path), m.writtenPath().c_str(), int(grid.cols), int(grid.rows), 1, type, co.get());
-  if (!m.ds) throw RasterError(path + ": GDAL cannot create " + m.writtenPath() + ": " + GdalSession::lastError());
+  m.ds = GDALCreate(driver("GTiff", path), m.writtenPath().c_str(), int(grid.cols), int(grid.rows), 1, type,
+                    co.get());
+  if (!m.ds)
+    throw RasterError(path + ": GDAL cannot create " + m.writtenPath() + ": " + GdalSession::lastError());
   double gt[6] = {grid.west, grid.cell, 0, grid.north, 0, -grid.cell};
   if (GDALSetGeoTransform(m.ds, gt) != CE_None ||
       GDALSetRasterNoDataValue(GDALGetRasterBand(m.ds, 1), options.nodata) != CE_None ||
@@ -111,10 +115,11 @@ void GeoTiffWriter::writeRows(std::size_t row_begin, std::size_t num_rows, const
     throw RasterError(m.out.target() + ": rows beyond the grid's " + std::to_string(m.grid.rows));
   if (num_rows == 0) return;
   GdalSession session;
-  const CPLErr e = GDALRasterIO(GDALGetRasterBand(m.ds, 1), GF_Write, 0, int(row_begin), int(m.grid.cols),
-                                int(num_rows), const_cast<double*>(values), int(m.grid.cols), int(num_rows),
-                                GDT_Float64, 0, 0);
-  if (e != CE_None) throw RasterError(m.out.target() + ": GDAL cannot write rows: " + GdalSession::lastError());
+  const CPLErr e =
+      GDALRasterIO(GDALGetRasterBand(m.ds, 1), GF_Write, 0, int(row_begin), int(m.grid.cols), int(num_rows),
+                   const_cast<double*>(values), int(m.grid.cols), int(num_rows), GDT_Float64, 0, 0);
+  if (e != CE_None)
+    throw RasterError(m.out.target() + ": GDAL cannot write rows: " + GdalSession::lastError());
 }
 
 void GeoTiffWriter::commit() {
@@ -126,7 +131,8 @@ void GeoTiffWriter::commit() {
   if (GdalSession::failed()) {
     m.out.discard();
     m.tiled.discard();
-    throw RasterError(m.out.target() + ": GDAL cannot finish " + m.writtenPath() + ": " + GdalSession::lastError());
+    throw RasterError(m.out.target() + ": GDAL cannot finish " + m.writtenPath() + ": " +
+                      GdalSession::lastError());
   }
   if (m.options.cog) {
     GDALDatasetH src = GDALOpen(m.tiled.path().c_str(), GA_ReadOnly);
@@ -138,8 +144,8 @@ void GeoTiffWriter::commit() {
     co.set("BLOCKSIZE", std::to_string(m.options.block ? m.options.block : 512));
     co.set("BIGTIFF", "IF_SAFER");
     co.set("NUM_THREADS", threadsValue(m.options.num_threads));
-    GDALDatasetH cog =
-        GDALCreateCopy(driver("COG", m.out.target()), m.out.path().c_str(), src, FALSE, co.get(), nullptr, nullptr);
+    GDALDatasetH cog = GDALCreateCopy(driver("COG", m.out.target()), m.out.path().c_str(), src, FALSE,
+                                      co.get(), nullptr, nullptr);
     const bool ok = cog && !GdalSession::failed();
     if (cog) GDALClose(cog);
     GDALClose(src);

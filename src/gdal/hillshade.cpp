@@ -28,8 +28,8 @@ struct Dataset {
 };
 }  // namespace
 
-void writeHillshadePng(const std::string& path, const dem::RasterGrid& grid, const double* values, double nodata,
-                       double z_factor) {
+void writeHillshadePng(const std::string& path, const dem::RasterGrid& grid, const double* values,
+                       double nodata, double z_factor) {
   if (grid.cols == 0 || grid.rows == 0) throw RasterError(path + ": cannot shade an empty raster");
   GdalSession session;
   GDALDriverH mem = GDALGetDriverByName("MEM"), png = GDALGetDriverByName("PNG");

@@ -27,7 +27,8 @@ std::string wktOf(OGRSpatialReferenceH srs) {
   char* text = nullptr;
   if (OSRExportToWkt(srs, &text) != OGRERR_NONE || !text) {
     CPLFree(text);
-    throw RasterError("OGR cannot export the LAS file's spatial reference as WKT: " + GdalSession::lastError());
+    throw RasterError("OGR cannot export the LAS file's spatial reference as WKT: " +
+                      GdalSession::lastError());
   }
   std::string out(text);
   CPLFree(text);
@@ -57,11 +58,13 @@ class GeoKeyTiff {
     shortTag(277, 1);  // SamplesPerPixel
     shortTag(278, 1);  // RowsPerStrip
     longTag(279, 1);   // StripByteCounts
-    e.push_back({34735, 3, std::uint32_t(crs.geo_keys.size()), bytes(crs.geo_keys.data(), 2 * crs.geo_keys.size())});
+    e.push_back(
+        {34735, 3, std::uint32_t(crs.geo_keys.size()), bytes(crs.geo_keys.data(), 2 * crs.geo_keys.size())});
     if (!crs.geo_doubles.empty())
       e.push_back({34736, 12, std::uint32_t(crs.geo_doubles.size()),
                    bytes(crs.geo_doubles.data(), 8 * crs.geo_doubles.size())});
-    if (!ascii.empty()) e.push_back({34737, 2, std::uint32_t(ascii.size()), bytes(ascii.data(), ascii.size())});
+    if (!ascii.empty())
+      e.push_back({34737, 2, std::uint32_t(ascii.size()), bytes(ascii.data(), ascii.size())});
     const std::uint32_t ifd_size = std::uint32_t(2 + 12 * e.size() + 4);
     std::uint32_t data_at = 8 + ifd_size;
     const std::uint32_t pixel_at = data_at;
@@ -140,7 +143,8 @@ std::string srsWktFromLas(const las::LasCrs& crs, std::string* source) {
     if (e == OGRERR_NONE) wkt = wktOf(srs);
     OSRDestroySpatialReference(srs);
     if (e != OGRERR_NONE)
-      throw RasterError("OGR cannot read the LAS file's WKT coordinate system record: " + GdalSession::lastError());
+      throw RasterError("OGR cannot read the LAS file's WKT coordinate system record: " +
+                        GdalSession::lastError());
     if (source) *source = "wkt";
     return wkt;
   }

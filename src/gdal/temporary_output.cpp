@@ -26,7 +26,8 @@ TemporaryOutput::TemporaryOutput(const std::string& target) : target_(target) {
   const std::string name = slash == std::string::npos ? target : target.substr(slash + 1);
   const std::size_t dot = name.find_last_of('.');
   const std::string ext = dot == std::string::npos || dot == 0 ? std::string() : name.substr(dot);
-  temporary_ = folder + "." + name + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ext;
+  temporary_ =
+      folder + "." + name + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ext;
 }
 
 TemporaryOutput::~TemporaryOutput() {

@@ -60,7 +60,8 @@ struct Raster {
   std::vector<double> values() const {
     const int w = GDALGetRasterXSize(ds), h = GDALGetRasterYSize(ds);
     std::vector<double> v(std::size_t(w) * std::size_t(h));
-    EXPECT_EQ(GDALRasterIO(GDALGetRasterBand(ds, 1), GF_Read, 0, 0, w, h, v.data(), w, h, GDT_Float64, 0, 0), CE_None);
+    EXPECT_EQ(GDALRasterIO(GDALGetRasterBand(ds, 1), GF_Read, 0, 0, w, h, v.data(), w, h, GDT_Float64, 0, 0),
+              CE_None);
     return v;
   }
 };

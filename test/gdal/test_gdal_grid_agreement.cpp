@@ -45,7 +45,8 @@ Agreement compare(const std::string& path, int cls, double cell, double west_ban
   EXPECT_EQ(las.header.scale[0], las.header.scale[1]);
   // Ours: LAS integers as the frame (as dw_dem does), grid converted into it.
   std::vector<double> fx(n), fy(n), wx(n), wy(n), z(n);
-  double lo_x = HUGE_VAL, lo_y = HUGE_VAL, hi_x = -HUGE_VAL, hi_y = -HUGE_VAL, zmin = HUGE_VAL, zmax = -HUGE_VAL;
+  double lo_x = HUGE_VAL, lo_y = HUGE_VAL, hi_x = -HUGE_VAL, hi_y = -HUGE_VAL, zmin = HUGE_VAL,
+         zmax = -HUGE_VAL;
   for (std::size_t i = 0; i < n; ++i) {
     fx[i] = las.X[i];
     fy[i] = las.Y[i];
@@ -81,9 +82,9 @@ Agreement compare(const std::string& path, int cls, double cell, double west_ban
   go.dfRadius = 0;  // outside every triangle: nodata, no nearest-neighbour fill
   go.dfNoDataValue = nodata;
   std::vector<double> theirs(g.size());
-  EXPECT_EQ(GDALGridCreate(GGA_Linear, &go, GUInt32(n), gx.data(), gy.data(), z.data(), g.west - cx, g.east() - cx,
-                           g.north - cy, g.south() - cy, GUInt32(g.cols), GUInt32(g.rows), GDT_Float64,
-                           theirs.data(), nullptr, nullptr),
+  EXPECT_EQ(GDALGridCreate(GGA_Linear, &go, GUInt32(n), gx.data(), gy.data(), z.data(), g.west - cx,
+                           g.east() - cx, g.north - cy, g.south() - cy, GUInt32(g.cols), GUInt32(g.rows),
+                           GDT_Float64, theirs.data(), nullptr, nullptr),
             CE_None);
 
   // The triangles GDAL interpolated from (the same qhull call on the same coordinates): where they are
@@ -103,7 +104,8 @@ Agreement compare(const std::string& path, int cls, double cell, double west_ban
   for (std::size_t k = 0; k < tin.triangles.size(); k += 3) {
     std::array<dw::index_t, 3> t = {tin.triangles[k], tin.triangles[k + 1], tin.triangles[k + 2]};
     std::sort(t.begin(), t.end());
-    if (!theirs_tri.count(t)) disputed.insert(disputed.end(), tin.triangles.begin() + k, tin.triangles.begin() + k + 3);
+    if (!theirs_tri.count(t))
+      disputed.insert(disputed.end(), tin.triangles.begin() + k, tin.triangles.begin() + k + 3);
   }
   const std::vector<double> ones(n, 1.0);
   const auto in_disputed = dw::dem::rasterizeTin(fx.data(), fy.data(), ones.data(), n, disputed, fg, ro);
@@ -129,7 +131,8 @@ Agreement compare(const std::string& path, int cls, double cell, double west_ban
     }
   }
   std::printf(
-      "%s class %d cell %g: %zu x %zu cells, both %zu (max |diff| %.3g, z range %.4g), only ours %zu, only GDAL "
+      "%s class %d cell %g: %zu x %zu cells, both %zu (max |diff| %.3g, z range %.4g), only ours %zu, only "
+      "GDAL "
       "%zu; %zu of %zu triangles not GDAL's, over %zu cells\n",
       path.c_str(), cls, cell, g.cols, g.rows, a.both, a.max_diff, a.z_range, a.only_ours, a.only_gdal,
       a.disputed_triangles, tin.numTriangles(), a.disputed_cells);
@@ -150,8 +153,8 @@ const char* kAutzen = "airborne/autzen_trim.las";
 const char* kHexbin = "airborne/hexbin-crop.las";
 const char* kExtraBytes = "airborne/las_with_several_extra_byte_bloc.laz";
 
-#define SKIP_WITHOUT(rel)                                                                   \
-  if (!dw_test::exists(dw_test::sharedData(rel))) {                                        \
+#define SKIP_WITHOUT(rel)                                                                \
+  if (!dw_test::exists(dw_test::sharedData(rel))) {                                      \
     GTEST_SKIP() << dw_test::sharedData(rel) << " is absent (the shared real data set)"; \
   }
 

@@ -25,7 +25,8 @@ std::vector<double> testValues(const dw::dem::RasterGrid& g, double nodata) {
   std::vector<double> v(g.size());
   for (std::size_t r = 0; r < g.rows; ++r)
     for (std::size_t c = 0; c < g.cols; ++c)
-      v[r * g.cols + c] = (r + c) % 17 == 0 ? nodata : 3100 + 0.01 * double(r) + std::sin(0.05 * double(c)) * 20;
+      v[r * g.cols + c] =
+          (r + c) % 17 == 0 ? nodata : 3100 + 0.01 * double(r) + std::sin(0.05 * double(c)) * 20;
   return v;
 }
 
@@ -172,7 +173,8 @@ TEST(Hillshade, PngOfTheDemWithNodataAsZero) {
   }
   EXPECT_GT(lit, s.size() / 2);
   EXPECT_EQ(dw_test::listFolder(dir), std::vector<std::string>{"shade.png"});
-  EXPECT_THROW(dw::gdal::writeHillshadePng(dir + "/none/shade.png", g, v.data(), -9999), dw::gdal::RasterError);
+  EXPECT_THROW(dw::gdal::writeHillshadePng(dir + "/none/shade.png", g, v.data(), -9999),
+               dw::gdal::RasterError);
 }
 
 }  // namespace

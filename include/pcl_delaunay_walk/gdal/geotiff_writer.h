@@ -22,13 +22,14 @@ class RasterError : public Error {
 };
 
 struct GeoTiffOptions {
-  bool cog = false;                ///< a Cloud-Optimized GeoTIFF (GDAL's COG driver, with overviews)
-  bool float64 = false;            ///< Float64 cells; Float32 (the usual DEM type) otherwise
-  std::string compress = "DEFLATE";  ///< DEFLATE, LZW, ZSTD or NONE; the floating-point predictor with all but NONE
-  unsigned block = 0;              ///< tile size; 0: 256 (GeoTIFF) or 512 (COG)
+  bool cog = false;      ///< a Cloud-Optimized GeoTIFF (GDAL's COG driver, with overviews)
+  bool float64 = false;  ///< Float64 cells; Float32 (the usual DEM type) otherwise
+  std::string compress =
+      "DEFLATE";       ///< DEFLATE, LZW, ZSTD or NONE; the floating-point predictor with all but NONE
+  unsigned block = 0;  ///< tile size; 0: 256 (GeoTIFF) or 512 (COG)
   double nodata = -9999;
-  std::string srs_wkt;             ///< spatial reference as WKT (srsWktFromLas); empty: none
-  unsigned num_threads = 0;        ///< GDAL's compression threads; 0: all cores
+  std::string srs_wkt;       ///< spatial reference as WKT (srsWktFromLas); empty: none
+  unsigned num_threads = 0;  ///< GDAL's compression threads; 0: all cores
 };
 
 /// Writes a raster row band by row band. Rows may come in any order; every row must be written before

@@ -13,8 +13,8 @@ namespace gdal {
 
 /// `values`: grid.size() cells, row by row, `nodata` where undefined. `z_factor` scales heights to the
 /// horizontal units. Throws dw::gdal::RasterError, leaving an existing `path` untouched, on failure.
-void writeHillshadePng(const std::string& path, const dem::RasterGrid& grid, const double* values, double nodata,
-                       double z_factor = 1.0);
+void writeHillshadePng(const std::string& path, const dem::RasterGrid& grid, const double* values,
+                       double nodata, double z_factor = 1.0);
 
 }  // namespace gdal
 }  // namespace dw

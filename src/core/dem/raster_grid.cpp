@@ -25,10 +25,12 @@ std::size_t cellsAcross(double from, double to, double cell, const char* axis) {
 RasterGrid gridFromBounds(double xmin, double ymin, double xmax, double ymax, double cell) {
   if (!std::isfinite(xmin) || !std::isfinite(ymin) || !std::isfinite(xmax) || !std::isfinite(ymax))
     throw Error("raster grid: the bounds must be finite");
-  if (!(cell > 0) || !std::isfinite(cell)) throw Error("raster grid: the cell size must be a positive number");
+  if (!(cell > 0) || !std::isfinite(cell))
+    throw Error("raster grid: the cell size must be a positive number");
   if (xmax < xmin || ymax < ymin)
-    throw Error("raster grid: empty bounds (xmin " + std::to_string(xmin) + " > xmax " + std::to_string(xmax) +
-                " or ymin " + std::to_string(ymin) + " > ymax " + std::to_string(ymax) + ")");
+    throw Error("raster grid: empty bounds (xmin " + std::to_string(xmin) + " > xmax " +
+                std::to_string(xmax) + " or ymin " + std::to_string(ymin) + " > ymax " +
+                std::to_string(ymax) + ")");
   RasterGrid g;
   g.west = xmin;
   g.north = ymax;
@@ -39,10 +41,12 @@ RasterGrid gridFromBounds(double xmin, double ymin, double xmax, double ymax, do
 }
 
 RasterGrid alignedGridCovering(double xmin, double ymin, double xmax, double ymax, double cell) {
-  if (!(cell > 0) || !std::isfinite(cell)) throw Error("raster grid: the cell size must be a positive number");
+  if (!(cell > 0) || !std::isfinite(cell))
+    throw Error("raster grid: the cell size must be a positive number");
   const double west = std::floor(xmin / cell) * cell, north = std::ceil(ymax / cell) * cell;
   // floor/ceil of the quotient can land one cell inside the box after rounding: step out if so.
-  return gridFromBounds(west > xmin ? west - cell : west, ymin, xmax, north < ymax ? north + cell : north, cell);
+  return gridFromBounds(west > xmin ? west - cell : west, ymin, xmax, north < ymax ? north + cell : north,
+                        cell);
 }
 
 }  // namespace dem

@@ -31,11 +31,13 @@ inline bool ownsEdge(const Corner& u, const Corner& v, double px, double py) {
 
 /// Inclusive index range [lo, hi] of the centres lo + (k + 0.5) step (k >= 0) in [a, b] along one axis,
 /// clipped to [first, last]; empty when lo > hi.
-inline void centreRange(double a_cells, double b_cells, std::size_t first, std::size_t last, std::ptrdiff_t& lo,
-                        std::ptrdiff_t& hi) {
+inline void centreRange(double a_cells, double b_cells, std::size_t first, std::size_t last,
+                        std::ptrdiff_t& lo, std::ptrdiff_t& hi) {
   const double l = std::ceil(a_cells - 0.5 - kSlack), h = std::floor(b_cells - 0.5 + kSlack);
-  lo = l < double(first) ? std::ptrdiff_t(first) : (l > double(last) ? std::ptrdiff_t(last) + 1 : std::ptrdiff_t(l));
-  hi = h > double(last) ? std::ptrdiff_t(last) : (h < double(first) ? std::ptrdiff_t(first) - 1 : std::ptrdiff_t(h));
+  lo = l < double(first) ? std::ptrdiff_t(first)
+                         : (l > double(last) ? std::ptrdiff_t(last) + 1 : std::ptrdiff_t(l));
+  hi = h > double(last) ? std::ptrdiff_t(last)
+                        : (h < double(first) ? std::ptrdiff_t(first) - 1 : std::ptrdiff_t(h));
 }
 
 /// The x-interval [lo, hi] where the line y = py meets the triangle's edges; false when rounding
@@ -104,7 +106,8 @@ TinRasterStats rasterizeTinRows(const double* x, const double* y, const double* 
   if (row_begin > row_end || row_end > grid.rows)
     throw Error("rasterizeTinRows: rows [" + std::to_string(row_begin) + ", " + std::to_string(row_end) +
                 ") are not inside the grid's " + std::to_string(grid.rows) + " rows");
-  if (num_indices % 3 != 0) throw Error("rasterizeTinRows: the triangle list's length is not a multiple of 3");
+  if (num_indices % 3 != 0)
+    throw Error("rasterizeTinRows: the triangle list's length is not a multiple of 3");
   if (!(grid.cell > 0) || grid.cols == 0) throw Error("rasterizeTinRows: empty grid");
   TinRasterStats total;
   if (row_begin == row_end) return total;
@@ -123,8 +126,8 @@ TinRasterStats rasterizeTinRows(const double* x, const double* y, const double* 
     for (std::size_t k = b; k < e; ++k) {
       const index_t* v = triangles + 3 * k;
       if (v[0] >= n || v[1] >= n || v[2] >= n)
-        throw Error("rasterizeTinRows: triangle " + std::to_string(k) + " has a vertex index >= " +
-                    std::to_string(n));
+        throw Error("rasterizeTinRows: triangle " + std::to_string(k) +
+                    " has a vertex index >= " + std::to_string(n));
       // Start at the smallest index, so the interpolation's rounding does not depend on the rotation
       // the triangulation happened to store.
       const int f = v[0] < v[1] ? (v[0] < v[2] ? 0 : 2) : (v[1] < v[2] ? 1 : 2);
@@ -157,8 +160,8 @@ std::vector<double> rasterizeTin(const double* x, const double* y, const double*
                                  const std::vector<index_t>& triangles, const RasterGrid& grid,
                                  const TinRasterOptions& options, TinRasterStats* stats) {
   std::vector<double> out(grid.size());
-  const TinRasterStats s =
-      rasterizeTinRows(x, y, value, n, triangles.data(), triangles.size(), grid, 0, grid.rows, out.data(), options);
+  const TinRasterStats s = rasterizeTinRows(x, y, value, n, triangles.data(), triangles.size(), grid, 0,
+                                            grid.rows, out.data(), options);
   if (stats) *stats = s;
   return out;
 }

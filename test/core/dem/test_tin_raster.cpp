@@ -46,7 +46,8 @@ double bruteForce(const Cloud& c, double px, double py, std::size_t* which = nul
   for (std::size_t t = 0; t < c.tri.size() / 3; ++t) {
     const index_t a = c.tri[3 * t], b = c.tri[3 * t + 1], d = c.tri[3 * t + 2];
     using dw::pred::orient2d;
-    if (orient2d(c.x[a], c.y[a], c.x[b], c.y[b], px, py) < 0 || orient2d(c.x[b], c.y[b], c.x[d], c.y[d], px, py) < 0 ||
+    if (orient2d(c.x[a], c.y[a], c.x[b], c.y[b], px, py) < 0 ||
+        orient2d(c.x[b], c.y[b], c.x[d], c.y[d], px, py) < 0 ||
         orient2d(c.x[d], c.y[d], c.x[a], c.y[a], px, py) < 0)
       continue;
     const double det = (c.x[b] - c.x[a]) * (c.y[d] - c.y[a]) - (c.y[b] - c.y[a]) * (c.x[d] - c.x[a]);
@@ -132,7 +133,9 @@ TEST(TinRaster, RasterIsBitIdenticalForThreadsWindowsAndTriangleOrder) {
   const auto ref = dw::dem::rasterizeTin(c.x.data(), c.y.data(), c.v.data(), c.x.size(), c.tri, g, one);
   dw::dem::TinRasterOptions three;
   three.num_threads = 3;
-  auto same = [&](const std::vector<double>& r) { return std::memcmp(r.data(), ref.data(), ref.size() * 8) == 0; };
+  auto same = [&](const std::vector<double>& r) {
+    return std::memcmp(r.data(), ref.data(), ref.size() * 8) == 0;
+  };
   EXPECT_TRUE(same(dw::dem::rasterizeTin(c.x.data(), c.y.data(), c.v.data(), c.x.size(), c.tri, g, three)));
   // Row windows of uneven heights, written one after the other.
   std::vector<double> windows(g.size());
@@ -199,14 +202,14 @@ TEST(TinRaster, BadInputIsRefused) {
   const Cloud c = randomCloud(100, 1, 10, 10);
   const RasterGrid g = grid(0, 10, 1, 10, 10);
   std::vector<double> out(100);
-  EXPECT_THROW(dw::dem::rasterizeTinRows(c.x.data(), c.y.data(), c.v.data(), c.x.size(), c.tri.data(), c.tri.size(), g,
-                                         5, 11, out.data()),
+  EXPECT_THROW(dw::dem::rasterizeTinRows(c.x.data(), c.y.data(), c.v.data(), c.x.size(), c.tri.data(),
+                                         c.tri.size(), g, 5, 11, out.data()),
                dw::Error);
-  EXPECT_THROW(dw::dem::rasterizeTinRows(c.x.data(), c.y.data(), c.v.data(), 50, c.tri.data(), c.tri.size(), g, 0, 10,
-                                         out.data()),
+  EXPECT_THROW(dw::dem::rasterizeTinRows(c.x.data(), c.y.data(), c.v.data(), 50, c.tri.data(), c.tri.size(),
+                                         g, 0, 10, out.data()),
                dw::Error);
-  EXPECT_THROW(dw::dem::rasterizeTinRows(c.x.data(), c.y.data(), c.v.data(), c.x.size(), c.tri.data(), 4, g, 0, 10,
-                                         out.data()),
+  EXPECT_THROW(dw::dem::rasterizeTinRows(c.x.data(), c.y.data(), c.v.data(), c.x.size(), c.tri.data(), 4, g,
+                                         0, 10, out.data()),
                dw::Error);
 }
 

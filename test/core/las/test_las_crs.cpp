@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -28,7 +29,8 @@ Bytes readAll(const std::string& p) {
 }
 
 void writeAll(const std::string& p, const Bytes& b) {
-  std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size()));
+  std::ofstream(p, std::ios::binary)
+      .write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size()));
 }
 
 template <typename T>
@@ -44,14 +46,15 @@ T get(const Bytes& b, std::size_t at) {
 
 /// A VLR (54-byte header) or, with `extended`, an EVLR (60-byte header).
 Bytes record(const char* user, std::uint16_t id, const Bytes& body, bool extended = false) {
-  Bytes r(extended ? 60 : 54, 0);
-  std::strncpy(reinterpret_cast<char*>(r.data() + 2), user, 16);
+  const std::size_t head = extended ? 60 : 54;
+  Bytes r(head + body.size(), 0);
+  for (std::size_t i = 0; i < 16 && user[i]; ++i) r[2 + i] = static_cast<unsigned char>(user[i]);
   put(r, 18, id);
   if (extended)
     put(r, 20, std::uint64_t(body.size()));
   else
     put(r, 20, std::uint16_t(body.size()));
-  r.insert(r.end(), body.begin(), body.end());
+  std::copy(body.begin(), body.end(), r.begin() + std::ptrdiff_t(head));
   return r;
 }
 
@@ -89,16 +92,17 @@ std::string lasWith(const std::string& name, unsigned minor, const std::vector<B
 }
 
 TEST(LasCrs, ProjectionRecordsAreReadAndOthersIgnored) {
-  const Bytes keys = {1, 0, 1, 0, 0, 0, 1, 0, 0x00, 0x0C, 0, 0, 1, 0, 0x5A, 0x7D};  // ProjectedCSTypeGeoKey 32090
+  const Bytes keys = {1,    0,    1, 0, 0, 0, 1,    0,
+                      0x00, 0x0C, 0, 0, 1, 0, 0x5A, 0x7D};  // ProjectedCSTypeGeoKey 32090
   Bytes doubles(16);
   put(doubles, 0, 1.5);
   put(doubles, 8, -2.25);
-  const std::string path = lasWith("vlrs.las", 2,
-                                   {record("liblas", 2112, text("NOT THIS")), record("LASF_Projection", 34735, keys),
-                                    record("LASF_Projection", 34736, doubles),
-                                    record("LASF_Projection", 34737, text("UTM|")),
-                                    record("LASF_Projection", 2112, text("PROJCS[\"x\"]")),
-                                    record("LASF_Projection", 2112, text("PROJCS[\"second\"]"))});
+  const std::string path =
+      lasWith("vlrs.las", 2,
+              {record("liblas", 2112, text("NOT THIS")), record("LASF_Projection", 34735, keys),
+               record("LASF_Projection", 34736, doubles), record("LASF_Projection", 34737, text("UTM|")),
+               record("LASF_Projection", 2112, text("PROJCS[\"x\"]")),
+               record("LASF_Projection", 2112, text("PROJCS[\"second\"]"))});
   const dw::las::LasCrs crs = dw::las::readLasCrs(path);
   EXPECT_EQ(crs.wkt, "PROJCS[\"x\"]");
   ASSERT_EQ(crs.geo_keys.size(), 8u);
@@ -146,7 +150,8 @@ TEST(LasCrs, NoRecordsGiveAnEmptyCrsAndBadRecordsAnError) {
     dw::las::readLasCrs(path);
     FAIL();
   } catch (const dw::las::LasError& e) {
-    EXPECT_NE(std::string(e.what()).find("VLR 0 runs past the point data offset"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("VLR 0 runs past the point data offset"), std::string::npos)
+        << e.what();
   }
   std::remove(path.c_str());
   EXPECT_THROW(dw::las::readLasCrs(tmpPath("missing.las")), dw::las::LasError);
@@ -154,7 +159,8 @@ TEST(LasCrs, NoRecordsGiveAnEmptyCrsAndBadRecordsAnError) {
 
 TEST(LasCrs, RealTilesCarryTheirCoordinateSystems) {
   const std::string dir = std::string(DW_SHARED_DATA_DIR) + "/airborne/";
-  if (!std::ifstream(dir + "autzen_trim.las").good()) GTEST_SKIP() << dir << " is absent (the shared real data set)";
+  if (!std::ifstream(dir + "autzen_trim.las").good())
+    GTEST_SKIP() << dir << " is absent (the shared real data set)";
   const auto autzen = dw::las::readLasCrs(dir + "autzen_trim.las");
   EXPECT_EQ(autzen.wkt.rfind("PROJCS[\"NAD_1983_HARN_Lambert_Conformal_Conic\"", 0), 0u) << autzen.wkt;
   EXPECT_EQ(autzen.geo_keys.size(), 92u);  // a 184-byte GeoKeyDirectoryTag
