@@ -6,6 +6,7 @@
 #include <cmath>
 #include <string>
 
+#include "core/dem/ownership.h"
 #include "pcl_delaunay_walk/core/geometry/predicates_2d.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
 
@@ -22,11 +23,8 @@ struct Corner {
   double x, y;
 };
 
-/// p owns edge u -> v's points when the shift p + (e, e^2) moves it to the edge's left.
 inline bool ownsEdge(const Corner& u, const Corner& v, double px, double py) {
-  const int o = pred::orient2d(u.x, u.y, v.x, v.y, px, py);
-  if (o != 0) return o > 0;
-  return v.y < u.y || (v.y == u.y && v.x > u.x);
+  return detail::ownsEdge(u.x, u.y, v.x, v.y, px, py);
 }
 
 /// Inclusive index range [lo, hi] of the centres lo + (k + 0.5) step (k >= 0) in [a, b] along one axis,
