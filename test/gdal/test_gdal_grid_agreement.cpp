@@ -158,6 +158,12 @@ const char* kExtraBytes = "airborne/las_with_several_extra_byte_bloc.laz";
     GTEST_SKIP() << dw_test::sharedData(rel) << " is absent (the shared real data set)"; \
   }
 
+TEST(GdalGridAgreement, BundledAutzenCropAllReturnsAndGround) {
+  const std::string crop = std::string(DW_TEST_DATA_DIR) + "/autzen_crop.las";
+  expectAgreement(compare(crop, -1, 1.0));  // feet
+  expectAgreement(compare(crop, 2, 2.0));
+}
+
 TEST(GdalGridAgreement, AutzenAllReturnsAndGround) {
   SKIP_WITHOUT(kAutzen);
   expectAgreement(compare(dw_test::sharedData(kAutzen), -1, 2.0));  // feet

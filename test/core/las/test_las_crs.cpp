@@ -157,6 +157,14 @@ TEST(LasCrs, NoRecordsGiveAnEmptyCrsAndBadRecordsAnError) {
   EXPECT_THROW(dw::las::readLasCrs(tmpPath("missing.las")), dw::las::LasError);
 }
 
+TEST(LasCrs, BundledCropKeepsTheAutzenRecords) {
+  const auto crop = dw::las::readLasCrs(std::string(DW_TEST_DATA_DIR) + "/autzen_crop.las");
+  EXPECT_EQ(crop.wkt.rfind("PROJCS[\"NAD_1983_HARN_Lambert_Conformal_Conic\"", 0), 0u) << crop.wkt;
+  EXPECT_EQ(crop.geo_keys.size(), 92u);
+  EXPECT_EQ(crop.geo_doubles.size(), 9u);  // a 72-byte GeoDoubleParamsTag
+  EXPECT_EQ(dw::las::readLasFile(std::string(DW_TEST_DATA_DIR) + "/autzen_crop.las").size(), 5779u);
+}
+
 TEST(LasCrs, RealTilesCarryTheirCoordinateSystems) {
   const std::string dir = std::string(DW_SHARED_DATA_DIR) + "/airborne/";
   if (!std::ifstream(dir + "autzen_trim.las").good())
