@@ -228,6 +228,12 @@ int run(const Arguments& a) {
 
   const auto t2 = std::chrono::steady_clock::now();
   const dw::dem::RasterGrid grid = worldGrid(a, las);
+  // The raster is held in memory as doubles (and GDAL takes int sizes): refuse what cannot fit.
+  if (grid.cols > 2147483647u || grid.rows > 2147483647u || grid.size() > (std::size_t(1) << 32))
+    throw dw::Error(
+        "a raster of " + std::to_string(grid.cols) + " x " + std::to_string(grid.rows) +
+        " cells is too large to hold in memory (at most 2^32 cells); choose a coarser --resolution "
+        "or smaller --bounds");
   dw::dem::RasterGrid fgrid = grid;  // the same cells in the frame
   fgrid.west = frame.toFrameX(grid.west);
   fgrid.north = frame.toFrameY(grid.north);

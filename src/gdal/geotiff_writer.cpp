@@ -67,6 +67,9 @@ GeoTiffWriter::GeoTiffWriter(const std::string& path, const dem::RasterGrid& gri
     : impl_(std::make_unique<Impl>(path, grid, options)) {
   if (grid.cols == 0 || grid.rows == 0 || !(grid.cell > 0))
     throw RasterError(path + ": cannot write an empty raster grid");
+  if (grid.cols > 2147483647u || grid.rows > 2147483647u)
+    throw RasterError(path + ": a raster of " + std::to_string(grid.cols) + " x " +
+                      std::to_string(grid.rows) + " cells exceeds GDAL's 2^31 - 1 cells a side");
   const std::string compress = upper(options.compress);
   if (compress != "DEFLATE" && compress != "LZW" && compress != "ZSTD" && compress != "NONE")
     throw RasterError(path + ": unknown compression '" + options.compress + "' (DEFLATE, LZW, ZSTD or NONE)");
