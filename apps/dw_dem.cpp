@@ -14,14 +14,12 @@
 
 #include "app_args.h"
 #include "core/util/process_memory.h"
-#include "pcl_delaunay_walk/core/dem/tin_raster.h"
+#include "dem_stage.h"
 #include "pcl_delaunay_walk/core/las/las_crs.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
-#include "pcl_delaunay_walk/gdal/geotiff_writer.h"
-#include "pcl_delaunay_walk/gdal/hillshade.h"
 #include "pcl_delaunay_walk/gdal/las_srs.h"
 
 namespace {
@@ -50,22 +48,12 @@ double since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-double parseNumber(const std::string& opt, const char* v) {
-  char* end = nullptr;
-  const double x = std::strtod(v, &end);
-  if (!end || end == v || *end || !std::isfinite(x))
-    throw dw::Error("bad value '" + std::string(v) + "' for " + opt);
-  return x;
-}
-
 struct Arguments {
-  std::string in, out, hillshade, value = "z";
+  std::string in;
   int cls = -1;
-  double resolution = 0, max_edge = 0;
-  bool has_bounds = false, certify = false, quiet = false, help = false;
-  double bounds[4] = {0, 0, 0, 0};
+  bool certify = false, quiet = false, help = false;
   unsigned threads = 0;
-  dw::gdal::GeoTiffOptions tiff;
+  dw_apps::DemOptions dem;
 };
 
 Arguments parseArguments(int argc, char** argv) {
@@ -77,32 +65,13 @@ Arguments parseArguments(int argc, char** argv) {
       return argv[++i];
     };
     if (s == "-o" || s == "--output") {
-      a.out = value();
-    } else if (s == "--resolution") {
-      a.resolution = parseNumber(s, value());
-      if (!(a.resolution > 0)) throw dw::Error("--resolution must be positive");
+      a.dem.out = value();
+    } else if (dw_apps::parseDemOption(s, value, a.dem)) {
+      // --resolution, --bounds, --max-edge, --value, --nodata, --float64, --compress, --cog, --hillshade
     } else if (s == "--class") {
       const auto v = dw_apps::parseList(value(), "class", 0, 255);
       if (v.size() != 1) throw dw::Error("--class takes one class code");
       a.cls = int(v[0]);
-    } else if (s == "--bounds") {
-      for (double& b : a.bounds) b = parseNumber(s, value());
-      a.has_bounds = true;
-    } else if (s == "--max-edge") {
-      a.max_edge = dw_apps::parseNonNegative(value(), "--max-edge");
-    } else if (s == "--value") {
-      a.value = value();
-      if (a.value != "z" && a.value != "intensity") throw dw::Error("--value must be z or intensity");
-    } else if (s == "--nodata") {
-      a.tiff.nodata = parseNumber(s, value());
-    } else if (s == "--float64") {
-      a.tiff.float64 = true;
-    } else if (s == "--compress") {
-      a.tiff.compress = value();
-    } else if (s == "--cog") {
-      a.tiff.cog = true;
-    } else if (s == "--hillshade") {
-      a.hillshade = value();
     } else if (s == "--threads") {
       const auto v = dw_apps::parseList(value(), "thread count", 1, 4096);
       if (v.size() != 1) throw dw::Error("--threads takes one count");
@@ -123,10 +92,9 @@ Arguments parseArguments(int argc, char** argv) {
     }
   }
   if (a.in.empty()) throw dw::Error("no input file");
-  if (a.out.empty()) throw dw::Error("no output file (-o out.tif)");
-  if (!(a.resolution > 0)) throw dw::Error("no --resolution given");
+  if (a.dem.out.empty()) throw dw::Error("no output file (-o out.tif)");
+  if (!(a.dem.resolution > 0)) throw dw::Error("no --resolution given");
   a.threads = dw::resolveThreads(a.threads);
-  a.tiff.num_threads = a.threads;
   return a;
 }
 
@@ -146,39 +114,26 @@ struct Progress {
 };
 Progress progress;
 
-/// The points in the triangulation frame: LAS integers when the x and y scales agree (an exact
-/// similarity of the plane, see docs/tin.md "Frames"), else scaled units. world = frame * k + offset.
-struct Frame {
-  double k = 1, off_x = 0, off_y = 0;
-  double toFrameX(double wx) const { return (wx - off_x) / k; }
-  double toFrameY(double wy) const { return (wy - off_y) / k; }
-};
-
-Frame frameOf(const dw::las::LasHeader& h, std::vector<double>& x, std::vector<double>& y,
-              const dw::las::LasCloud& las) {
-  Frame f;
+/// The points in the triangulation frame (dem_stage.h), and the world box of the points.
+dw_apps::Frame frameOf(const dw::las::LasCloud& las, std::vector<double>& x, std::vector<double>& y,
+                       double lo[2], double hi[2]) {
+  const dw::las::LasHeader& h = las.header;
+  dw_apps::Frame f;
   const bool same = h.scale[0] == h.scale[1];
   f.k = same ? h.scale[0] : 1.0;
   f.off_x = h.offset[0];
   f.off_y = h.offset[1];
   x.resize(las.size());
   y.resize(las.size());
+  lo[0] = lo[1] = HUGE_VAL;
+  hi[0] = hi[1] = -HUGE_VAL;
   for (std::size_t i = 0; i < las.size(); ++i) {
     x[i] = same ? double(las.X[i]) : las.X[i] * h.scale[0];
     y[i] = same ? double(las.Y[i]) : las.Y[i] * h.scale[1];
+    lo[0] = std::min(lo[0], las.x(i)), hi[0] = std::max(hi[0], las.x(i));
+    lo[1] = std::min(lo[1], las.y(i)), hi[1] = std::max(hi[1], las.y(i));
   }
   return f;
-}
-
-dw::dem::RasterGrid worldGrid(const Arguments& a, const dw::las::LasCloud& las) {
-  if (a.has_bounds)
-    return dw::dem::gridFromBounds(a.bounds[0], a.bounds[1], a.bounds[2], a.bounds[3], a.resolution);
-  double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
-  for (std::size_t i = 0; i < las.size(); ++i) {
-    const double p[2] = {las.x(i), las.y(i)};
-    for (int k = 0; k < 2; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
-  }
-  return dw::dem::alignedGridCovering(lo[0], lo[1], hi[0], hi[1], a.resolution);
 }
 
 std::string crsOf(const Arguments& a) {
@@ -199,7 +154,7 @@ int run(const Arguments& a) {
   dw::las::LasReadOptions lo;
   lo.classification = a.cls;
   lo.threads = a.threads;
-  lo.keep_attributes = a.value == "intensity";
+  lo.keep_attributes = a.dem.value == "intensity";
   if (!a.quiet) lo.progress = [](double f, void*) { progress("read", f); };
   const dw::las::LasCloud las = dw::las::readLasFile(a.in, lo);
   const std::size_t n = las.size();
@@ -211,7 +166,8 @@ int run(const Arguments& a) {
 
   const auto t1 = std::chrono::steady_clock::now();
   std::vector<double> x, y;
-  const Frame frame = frameOf(las.header, x, y, las);
+  double box_lo[2], box_hi[2];
+  const dw_apps::Frame frame = frameOf(las, x, y, box_lo, box_hi);
   dw::tin::TinOptions to;
   to.num_threads = a.threads;
   if (!a.quiet) to.progress = [](const std::string& stage, double f) { progress(stage, f); };
@@ -226,43 +182,15 @@ int run(const Arguments& a) {
     if (!c.ok) return 2;
   }
 
-  const auto t2 = std::chrono::steady_clock::now();
-  const dw::dem::RasterGrid grid = worldGrid(a, las);
-  // The raster is held in memory as doubles (and GDAL takes int sizes): refuse what cannot fit.
-  if (grid.cols > 2147483647u || grid.rows > 2147483647u || grid.size() > (std::size_t(1) << 32))
-    throw dw::Error(
-        "a raster of " + std::to_string(grid.cols) + " x " + std::to_string(grid.rows) +
-        " cells is too large to hold in memory (at most 2^32 cells); choose a coarser --resolution "
-        "or smaller --bounds");
-  dw::dem::RasterGrid fgrid = grid;  // the same cells in the frame
-  fgrid.west = frame.toFrameX(grid.west);
-  fgrid.north = frame.toFrameY(grid.north);
-  fgrid.cell = grid.cell / frame.k;
   std::vector<double> value(n);
-  for (std::size_t i = 0; i < n; ++i) value[i] = a.value == "z" ? las.z(i) : double(las.intensity[i]);
-  dw::dem::TinRasterOptions ro;
-  ro.max_edge = a.max_edge / frame.k;
-  ro.nodata = a.tiff.nodata;
-  ro.num_threads = a.threads;
-  if (!a.quiet) ro.progress = [](double f) { progress("raster", f); };
-  dw::dem::TinRasterStats rs;
-  const std::vector<double> raster =
-      dw::dem::rasterizeTin(x.data(), y.data(), value.data(), n, tin.triangles, fgrid, ro, &rs);
-  const double t_raster = since(t2);
-
-  const auto t3 = std::chrono::steady_clock::now();
-  dw::gdal::GeoTiffOptions tiff = a.tiff;
-  tiff.srs_wkt = wkt;
-  dw::gdal::GeoTiffWriter writer(a.out, grid, tiff);
-  const std::size_t band = 256;
-  for (std::size_t r = 0; r < grid.rows; r += band) {
-    writer.writeRows(r, std::min(band, grid.rows - r), raster.data() + r * grid.cols);
-    if (!a.quiet) progress("write", double(std::min(grid.rows, r + band)) / double(grid.rows));
-  }
-  // The preview first: if it fails, the DEM is not committed and an existing one stays as it was.
-  if (!a.hillshade.empty()) dw::gdal::writeHillshadePng(a.hillshade, grid, raster.data(), a.tiff.nodata);
-  writer.commit();
-  const double t_write = since(t3), total = since(t0);
+  for (std::size_t i = 0; i < n; ++i) value[i] = a.dem.value == "z" ? las.z(i) : double(las.intensity[i]);
+  std::function<void(const std::string&, double)> show;
+  if (!a.quiet) show = [](const std::string& stage, double f) { progress(stage, f); };
+  const dw_apps::DemResult dem =
+      dw_apps::writeDem(a.dem, frame, x, y, value, tin, box_lo, box_hi, wkt, a.threads, show);
+  const dw::dem::RasterGrid& grid = dem.grid;
+  const dw::dem::TinRasterStats& rs = dem.stats;
+  const double t_raster = dem.raster_s, t_write = dem.write_s, total = since(t0);
 
   const long peak = dw::processStatusKb("VmHWM:");
   std::printf(
@@ -272,8 +200,8 @@ int run(const Arguments& a) {
       rs.cells_set, grid.size());
   std::printf("threads %u  read %.3f s  triangulate %.3f s  raster %.3f s  write %.3f s  total %.3f s\n",
               a.threads, t_read, t_tin, t_raster, t_write, total);
-  std::printf("peak memory %.1f MB  wrote %s%s%s\n", peak / 1024.0, a.out.c_str(),
-              a.hillshade.empty() ? "" : " and ", a.hillshade.c_str());
+  std::printf("peak memory %.1f MB  wrote %s%s%s\n", peak / 1024.0, a.dem.out.c_str(),
+              a.dem.hillshade.empty() ? "" : " and ", a.dem.hillshade.c_str());
   return 0;
 }
 
