@@ -2,11 +2,13 @@
 /// \brief dw_dem: a raster DEM (DTM with --class 2, DSM with all returns) of a LAS/LAZ file, by TIN-linear
 /// interpolation of the Delaunay TIN at the cell centres, written as a tiled, compressed GeoTIFF (or COG)
 /// carrying the file's coordinate system (docs/dem.md).
-///   dw_dem input.{las,laz} -o out.tif --resolution R [--class C] [--bounds xmin ymin xmax ymax]
-///          [--max-edge L] [--value z|intensity] [--cog] [--hillshade out.png] [--threads N] ...
+///   dw_dem input.{las,laz} [more tiles ...] -o out.tif --resolution R [--class C]
+///          [--bounds xmin ymin xmax ymax] [--max-edge L] [--value z|intensity] [--cog]
+///          [--hillshade out.png] [--threads N] ...
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -27,8 +29,9 @@ namespace {
 void usage() {
   std::fprintf(
       stderr,
-      "usage: dw_dem input.{las,laz} -o out.tif --resolution R [options]\n"
+      "usage: dw_dem input.{las,laz} [more.las ...] -o out.tif --resolution R [options]\n"
       "  TIN-linear DEM of the points: the Delaunay TIN interpolated at every cell centre.\n"
+      "  Several inputs (tiles of one survey: same scale, offsets on one grid) are one cloud.\n"
       "  --class C            keep points of classification C (2 = ground: a DTM; default all: a DSM)\n"
       "  --bounds X0 Y0 X1 Y1 the raster's west, south, east, north edges (default: the points'\n"
       "                       bounding box, widened to multiples of R)\n"
@@ -49,7 +52,7 @@ double since(std::chrono::steady_clock::time_point t) {
 }
 
 struct Arguments {
-  std::string in;
+  std::vector<std::string> inputs;  ///< tiles of one survey, triangulated as one cloud
   int cls = -1;
   bool certify = false, quiet = false, help = false;
   unsigned threads = 0;
@@ -85,13 +88,11 @@ Arguments parseArguments(int argc, char** argv) {
       return a;
     } else if (!s.empty() && s[0] == '-') {
       throw dw::Error("unknown option " + s);
-    } else if (a.in.empty()) {
-      a.in = s;
     } else {
-      throw dw::Error("more than one input file given");
+      a.inputs.push_back(s);
     }
   }
-  if (a.in.empty()) throw dw::Error("no input file");
+  if (a.inputs.empty()) throw dw::Error("no input file");
   if (a.dem.out.empty()) throw dw::Error("no output file (-o out.tif)");
   if (!(a.dem.resolution > 0)) throw dw::Error("no --resolution given");
   a.threads = dw::resolveThreads(a.threads);
@@ -136,17 +137,51 @@ dw_apps::Frame frameOf(const dw::las::LasCloud& las, std::vector<double>& x, std
   return f;
 }
 
+/// The CRS of the first input as WKT (empty: none); a warning when another input's records differ.
 std::string crsOf(const Arguments& a) {
-  std::string source;
+  std::string source, wkt;
   try {
-    const std::string wkt = dw::gdal::srsWktFromLas(dw::las::readLasCrs(a.in), &source);
+    wkt = dw::gdal::srsWktFromLas(dw::las::readLasCrs(a.inputs[0]), &source);
     if (!a.quiet)
       std::fprintf(stderr, "coordinate system: %s\n", wkt.empty() ? "none in the file" : source.c_str());
-    return wkt;
+    for (std::size_t i = 1; i < a.inputs.size(); ++i)
+      if (dw::gdal::srsWktFromLas(dw::las::readLasCrs(a.inputs[i])) != wkt)
+        std::fprintf(stderr, "warning: %s: another coordinate system than %s's; the raster takes %s's\n",
+                     a.inputs[i].c_str(), a.inputs[0].c_str(), a.inputs[0].c_str());
   } catch (const dw::gdal::RasterError& e) {
-    std::fprintf(stderr, "warning: %s: %s; the raster gets no coordinate system\n", a.in.c_str(), e.what());
+    std::fprintf(stderr, "warning: %s; the raster gets no coordinate system\n", e.what());
     return std::string();
   }
+  return wkt;
+}
+
+/// Appends `more` to `all`, re-expressing its integers in `all`'s scale and offset: exact when the
+/// scales are equal and the offsets differ by whole units (tiles of one survey), else refused.
+void appendCloud(dw::las::LasCloud& all, const dw::las::LasCloud& more, const std::string& name) {
+  std::int64_t shift[3];
+  for (int k = 0; k < 3; ++k) {
+    const double d = (more.header.offset[k] - all.header.offset[k]) / all.header.scale[k];
+    if (more.header.scale[k] != all.header.scale[k] || d != std::round(d) || std::fabs(d) > 4e9)
+      throw dw::Error(name +
+                      ": its LAS scale and offset do not share the first input's integer grid (scales " +
+                      std::to_string(more.header.scale[k]) + " and " + std::to_string(all.header.scale[k]) +
+                      "); tiles of one survey can be combined, others not yet");
+    shift[k] = std::int64_t(d);
+  }
+  auto add = [&](std::vector<std::int32_t>& to, const std::vector<std::int32_t>& from, std::int64_t s) {
+    for (std::int32_t v : from) {
+      const std::int64_t w = std::int64_t(v) + s;
+      if (w < INT32_MIN || w > INT32_MAX)
+        throw dw::Error(name + ": a coordinate leaves the first input's frame");
+      to.push_back(std::int32_t(w));
+    }
+  };
+  add(all.X, more.X, shift[0]);
+  add(all.Y, more.Y, shift[1]);
+  add(all.Z, more.Z, shift[2]);
+  all.intensity.insert(all.intensity.end(), more.intensity.begin(), more.intensity.end());
+  all.classification.insert(all.classification.end(), more.classification.begin(), more.classification.end());
+  all.return_number.insert(all.return_number.end(), more.return_number.begin(), more.return_number.end());
 }
 
 int run(const Arguments& a) {
@@ -156,10 +191,12 @@ int run(const Arguments& a) {
   lo.threads = a.threads;
   lo.keep_attributes = a.dem.value == "intensity";
   if (!a.quiet) lo.progress = [](double f, void*) { progress("read", f); };
-  const dw::las::LasCloud las = dw::las::readLasFile(a.in, lo);
+  dw::las::LasCloud las = dw::las::readLasFile(a.inputs[0], lo);
+  for (std::size_t i = 1; i < a.inputs.size(); ++i)
+    appendCloud(las, dw::las::readLasFile(a.inputs[i], lo), a.inputs[i]);
   const std::size_t n = las.size();
   if (n == 0)
-    throw dw::Error(a.in + ": no points" +
+    throw dw::Error((a.inputs.size() == 1 ? a.inputs[0] : "the inputs") + ": no points" +
                     (a.cls >= 0 ? " of class " + std::to_string(a.cls) : std::string()));
   const std::string wkt = crsOf(a);
   const double t_read = since(t0);
