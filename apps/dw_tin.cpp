@@ -1,6 +1,8 @@
 /// \file dw_tin.cpp
-/// \brief dw_tin: parallel Delaunay TIN of a LiDAR cloud (LAS, PCD or PLY) written as a binary PLY mesh.
-///   dw_tin input.{las,pcd,ply} -o out.ply [--threads N] [--strips K] [--class C] [--certify] [--quiet]
+/// \brief dw_tin: parallel Delaunay TIN of a LiDAR cloud (LAS, PCD or PLY) written as a binary PLY mesh
+/// and/or, with GDAL, as a raster DEM (the DEM stage of dw_dem, apps/dem_stage.h; docs/dem.md).
+///   dw_tin input.{las,pcd,ply} [-o out.ply] [--dem out.tif --resolution R ...] [--threads N] [--strips K]
+///          [--class C] [--certify] [--quiet]
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 #include <pcl/point_types.h>
@@ -19,6 +21,11 @@
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/core/tin/ply_writer.h"
+#ifdef DW_HAVE_GDAL
+#include "dem_stage.h"
+#include "pcl_delaunay_walk/core/las/las_crs.h"
+#include "pcl_delaunay_walk/gdal/las_srs.h"
+#endif
 
 namespace {
 
@@ -29,7 +36,11 @@ void usage() {
       "[--quiet]\n"
       "  Delaunay triangulation of the points' (x, y), z kept; writes a binary PLY mesh.\n"
       "  --class C   LAS only: keep points of classification C (2 = ground)\n"
-      "  --certify   check every edge with exact predicates afterwards (slower, more memory)\n");
+      "  --certify   check every edge with exact predicates afterwards (slower, more memory)\n"
+      "  --dem OUT.tif --resolution R [--bounds ..] [--max-edge L] [--value z|intensity] [--cog] "
+      "[--hillshade P]\n"
+      "              also (or only, without -o) a TIN-linear GeoTIFF DEM, as dw_dem writes it (needs "
+      "GDAL)\n");
 }
 
 std::string lower(std::string s) {
@@ -54,7 +65,10 @@ double since(std::chrono::steady_clock::time_point t) {
 
 /// The command line.
 struct Arguments {
-  std::string in, out;
+  std::string in, out, dem_out;
+#ifdef DW_HAVE_GDAL
+  dw_apps::DemOptions dem;
+#endif
   dw::tin::TinOptions opt;
   int cls = -1;
   bool certify = false, quiet = false, help = false;
@@ -70,6 +84,12 @@ Arguments parseArguments(int argc, char** argv) {
     };
     if (a == "-o" || a == "--output")
       args.out = value();
+    else if (a == "--dem")
+      args.dem_out = value();
+#ifdef DW_HAVE_GDAL
+    else if (dw_apps::parseDemOption(a, value, args.dem))
+      continue;
+#endif
     else if (a == "--threads")
       args.opt.num_threads = parseUnsigned(a, value());
     else if (a == "--strips")
@@ -92,7 +112,14 @@ Arguments parseArguments(int argc, char** argv) {
     }
   }
   if (args.in.empty()) throw dw::Error("no input file");
-  if (args.out.empty()) throw dw::Error("no output file (-o out.ply)");
+  if (args.out.empty() && args.dem_out.empty())
+    throw dw::Error("no output file (-o out.ply or --dem out.tif)");
+#ifdef DW_HAVE_GDAL
+  args.dem.out = args.dem_out;
+  if (!args.dem_out.empty() && !(args.dem.resolution > 0)) throw dw::Error("--dem needs --resolution");
+#else
+  if (!args.dem_out.empty()) throw dw::Error("--dem: this dw_tin was built without GDAL (see docs/dem.md)");
+#endif
   if (!std::ifstream(args.in).good()) throw dw::Error(args.in + ": cannot open for reading");
   if (args.opt.num_threads == 0) args.opt.num_threads = std::max(1u, std::thread::hardware_concurrency());
   if (!args.quiet)
@@ -149,6 +176,9 @@ InputCloud readInput(const Arguments& args) {
     input.is_las = true;
     dw::las::LasReadOptions lo;
     lo.classification = args.cls;
+#ifdef DW_HAVE_GDAL
+    lo.keep_attributes = !args.dem_out.empty() && args.dem.value == "intensity";
+#endif
     static int last_pct = -1;  // print every 5 %: a terminal line, not a log flood
     if (!args.quiet)
       lo.progress = [](double f, void*) {
@@ -203,6 +233,49 @@ void printReport(const Arguments& args, std::size_t n, const dw::tin::TinResult&
   std::printf("peak memory %.1f MB (%.1f bytes/point)\n", peak / 1024.0, peak * 1024.0 / double(n));
 }
 
+#ifdef DW_HAVE_GDAL
+/// The DEM of the TIN (apps/dem_stage.h), with the LAS file's CRS; prints its line of the report.
+void writeDemOf(const Arguments& args, const InputCloud& input, const dw::tin::TinResult& tin) {
+  if (args.dem.value == "intensity" && !input.is_las) throw dw::Error("--value intensity needs a LAS input");
+  const std::size_t n = input.size();
+  std::vector<double> x, y, value(n);
+  input.frame(x, y);
+  dw_apps::Frame frame;
+  if (input.is_las) {
+    frame.k = input.same_scale ? input.las.header.scale[0] : 1.0;
+    frame.off_x = input.las.header.offset[0];
+    frame.off_y = input.las.header.offset[1];
+  }
+  double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL}, p[3];
+  for (std::size_t i = 0; i < n; ++i) {
+    input.point(i, p);
+    value[i] = args.dem.value == "z" ? p[2] : double(input.las.intensity[i]);
+    lo[0] = std::min(lo[0], p[0]), hi[0] = std::max(hi[0], p[0]);
+    lo[1] = std::min(lo[1], p[1]), hi[1] = std::max(hi[1], p[1]);
+  }
+  std::string wkt;
+  if (input.is_las) {
+    try {
+      wkt = dw::gdal::srsWktFromLas(dw::las::readLasCrs(args.in));
+    } catch (const dw::gdal::RasterError& e) {
+      std::fprintf(stderr, "warning: %s: %s; the raster gets no coordinate system\n", args.in.c_str(),
+                   e.what());
+    }
+  }
+  std::function<void(const std::string&, double)> show;
+  if (!args.quiet)
+    show = [](const std::string& stage, double f) {
+      std::fprintf(stderr, "\r  %-8s %5.1f%%", stage.c_str(), 100.0 * f);
+      if (f >= 1.0) std::fprintf(stderr, "\n");
+    };
+  const unsigned threads = args.opt.num_threads;  // set by parseArguments
+  const auto dem = dw_apps::writeDem(args.dem, frame, x, y, value, tin, lo, hi, wkt, threads, show);
+  std::printf("dem %s: %zu x %zu cells of %.6g, set %zu, killed triangles %zu, raster %.2f s, write %.2f s\n",
+              args.dem.out.c_str(), dem.grid.cols, dem.grid.rows, dem.grid.cell, dem.stats.cells_set,
+              dem.stats.triangles_killed, dem.raster_s, dem.write_s);
+}
+#endif
+
 /// Read, triangulate, certify if asked, write, report; the process's exit status.
 int run(const Arguments& args) {
   Timings t;
@@ -228,6 +301,10 @@ int run(const Arguments& args) {
                  tin.num_vertices);
   if (args.certify && !certify(input, tin)) return 2;
 
+#ifdef DW_HAVE_GDAL
+  if (!args.dem_out.empty()) writeDemOf(args, input, tin);
+#endif
+  if (args.out.empty()) return 0;
   const auto t2 = std::chrono::steady_clock::now();
   const std::vector<std::string> comments = {"dw_tin Delaunay TIN of " + args.in,
                                              "triangles are Delaunay in (x, y); z is carried"};

@@ -9,7 +9,7 @@ PACKAGES=(build-essential cmake ninja-build ccache pkg-config
   libgtest-dev libgmock-dev libbenchmark-dev libnanoflann-dev libcgal-dev
   libopenmpi-dev openmpi-bin xvfb xauth python3 python3-matplotlib
   pybind11-dev python3-pybind11 python3-dev python3-numpy python3-scipy python3-pytest
-  clang libclang-rt-14-dev)
+  clang libclang-rt-14-dev libgdal-dev gdal-bin)
 
 missing=()
 for p in "${PACKAGES[@]}"; do

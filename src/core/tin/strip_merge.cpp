@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "bowyer_watson.h"
+#include "circumdisk_side.h"
 
 namespace dw {
 namespace tin {
@@ -22,27 +23,7 @@ namespace {
 /// the seam (left: u < seam; right: u > seam). Conservative: an ill-conditioned triangle is "unsure".
 bool provablySure(const PointSet& ps, const index_t* tv, index_t t, int axis, double seam, bool left) {
   const index_t a = tv[3 * t] & ~kMark, b = tv[3 * t + 1], c = tv[3 * t + 2];
-  const double ax = ps.x(a), ay = ps.y(a);
-  const double bx = ps.x(b) - ax, by = ps.y(b) - ay, cx = ps.x(c) - ax, cy = ps.y(c) - ay;
-  const double p = bx * cy, q = by * cx;
-  const double d = 2.0 * (p - q);
-  const double mag = std::fabs(p) + std::fabs(q);
-  // A nearly flat triangle has a huge, badly determined circle: never call it sure.
-  if (!(std::fabs(d) > 1e-6 * mag)) return false;
-  const double b2 = bx * bx + by * by, c2 = cx * cx + cy * cy;
-  const double ux = (cy * b2 - by * c2) / d;
-  const double uy = (bx * c2 - cx * b2) / d;
-  const double r = std::sqrt(ux * ux + uy * uy);
-  const double l = std::max(std::sqrt(b2), std::sqrt(c2));
-  const double centre = axis == 0 ? ax + ux : ay + uy;
-  const double base = axis == 0 ? ax : ay;
-  // Rounding of the differences, the 2x2 determinant (relative error <= ~1e-9 after the check above),
-  // the numerators (<= ~12 eps l^3 / |d|), the square root and the final sums, with a factor > 4 spare.
-  constexpr double kEps = 1.1102230246251565e-16;
-  const double margin = 64.0 * kEps * l * l * l / std::fabs(d) + 4e-9 * (std::fabs(ux) + std::fabs(uy) + r) +
-                        16.0 * kEps * (std::fabs(base) + std::fabs(seam) + r + std::fabs(ux) + std::fabs(uy));
-  if (left) return centre + r + margin < seam;
-  return centre - r - margin > seam;
+  return circumdiskProvablyOnSide(ps.x(a), ps.y(a), ps.x(b), ps.y(b), ps.x(c), ps.y(c), axis, seam, left);
 }
 
 /// Marks and returns the unsure triangles of a group: the ghosts and every triangle, connected to them

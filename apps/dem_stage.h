@@ -1,0 +1,131 @@
+/// \file dem_stage.h
+/// \brief The DEM stage shared by dw_dem and `dw_tin --dem`: its command-line options, the grid in the
+/// points' triangulation frame, TIN-linear rasterisation and the GeoTIFF (+ hillshade) output, written
+/// safely (docs/dem.md). Needs the GDAL adapter.
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "app_args.h"
+#include "pcl_delaunay_walk/core/dem/tin_raster.h"
+#include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
+#include "pcl_delaunay_walk/gdal/geotiff_writer.h"
+#include "pcl_delaunay_walk/gdal/hillshade.h"
+
+namespace dw_apps {
+
+/// The DEM's options (docs/dem.md, "Using it").
+struct DemOptions {
+  std::string out, hillshade, value = "z";
+  double resolution = 0, max_edge = 0;
+  bool has_bounds = false;
+  double bounds[4] = {0, 0, 0, 0};
+  dw::gdal::GeoTiffOptions tiff;
+};
+
+inline double parseFinite(const std::string& opt, const char* v) {
+  char* end = nullptr;
+  const double x = std::strtod(v, &end);
+  if (!end || end == v || *end || !std::isfinite(x))
+    throw dw::Error("bad value '" + std::string(v) + "' for " + opt);
+  return x;
+}
+
+/// If `a` is a DEM option, reads its values through `value()` into `d` and returns true.
+inline bool parseDemOption(const std::string& a, const std::function<const char*()>& value, DemOptions& d) {
+  if (a == "--resolution") {
+    d.resolution = parseFinite(a, value());
+    if (!(d.resolution > 0)) throw dw::Error("--resolution must be positive");
+  } else if (a == "--bounds") {
+    for (double& b : d.bounds) b = parseFinite(a, value());
+    d.has_bounds = true;
+  } else if (a == "--max-edge") {
+    d.max_edge = parseNonNegative(value(), "--max-edge");
+  } else if (a == "--value") {
+    d.value = value();
+    if (d.value != "z" && d.value != "intensity") throw dw::Error("--value must be z or intensity");
+  } else if (a == "--nodata") {
+    d.tiff.nodata = parseFinite(a, value());
+  } else if (a == "--float64") {
+    d.tiff.float64 = true;
+  } else if (a == "--compress") {
+    d.tiff.compress = value();
+  } else if (a == "--cog") {
+    d.tiff.cog = true;
+  } else if (a == "--hillshade") {
+    d.hillshade = value();
+  } else {
+    return false;
+  }
+  return true;
+}
+
+/// The triangulation frame of the points: world = frame * k + offset (LAS integers when the x and y
+/// scales agree, docs/tin.md "Frames").
+struct Frame {
+  double k = 1, off_x = 0, off_y = 0;
+};
+
+struct DemResult {
+  dw::dem::RasterGrid grid;
+  dw::dem::TinRasterStats stats;
+  double raster_s = 0, write_s = 0;
+};
+
+/// Rasterises `tin` of the frame points (fx, fy) with per-point `value`s on the grid of `d` (or the
+/// aligned grid covering the world box [lo, hi]), then writes the GeoTIFF (and the hillshade first, so
+/// that a failing preview keeps an existing DEM), with the CRS `srs_wkt`.
+inline DemResult writeDem(const DemOptions& d, const Frame& frame, const std::vector<double>& fx,
+                          const std::vector<double>& fy, const std::vector<double>& value,
+                          const dw::tin::TinResult& tin, const double lo[2], const double hi[2],
+                          const std::string& srs_wkt, unsigned threads,
+                          const std::function<void(const std::string&, double)>& progress) {
+  using clock = std::chrono::steady_clock;
+  const auto t0 = clock::now();
+  DemResult res;
+  res.grid = d.has_bounds
+                 ? dw::dem::gridFromBounds(d.bounds[0], d.bounds[1], d.bounds[2], d.bounds[3], d.resolution)
+                 : dw::dem::alignedGridCovering(lo[0], lo[1], hi[0], hi[1], d.resolution);
+  const dw::dem::RasterGrid& grid = res.grid;
+  // The raster is held in memory as doubles (and GDAL takes int sizes): refuse what cannot fit.
+  if (grid.cols > 2147483647u || grid.rows > 2147483647u || grid.size() > (std::size_t(1) << 32))
+    throw dw::Error(
+        "a raster of " + std::to_string(grid.cols) + " x " + std::to_string(grid.rows) +
+        " cells is too large to hold in memory (at most 2^32 cells); choose a coarser --resolution "
+        "or smaller --bounds");
+  dw::dem::RasterGrid fgrid = grid;  // the same cells in the frame
+  fgrid.west = (grid.west - frame.off_x) / frame.k;
+  fgrid.north = (grid.north - frame.off_y) / frame.k;
+  fgrid.cell = grid.cell / frame.k;
+  dw::dem::TinRasterOptions ro;
+  ro.max_edge = d.max_edge / frame.k;
+  ro.nodata = d.tiff.nodata;
+  ro.num_threads = threads;
+  if (progress) ro.progress = [&](double f) { progress("raster", f); };
+  const std::vector<double> raster = dw::dem::rasterizeTin(fx.data(), fy.data(), value.data(), fx.size(),
+                                                           tin.triangles, fgrid, ro, &res.stats);
+  const auto t1 = clock::now();
+  res.raster_s = std::chrono::duration<double>(t1 - t0).count();
+
+  dw::gdal::GeoTiffOptions tiff = d.tiff;
+  tiff.srs_wkt = srs_wkt;
+  tiff.num_threads = threads;
+  dw::gdal::GeoTiffWriter writer(d.out, grid, tiff);
+  const std::size_t band = 256;
+  for (std::size_t r = 0; r < grid.rows; r += band) {
+    writer.writeRows(r, std::min(band, grid.rows - r), raster.data() + r * grid.cols);
+    if (progress) progress("write", double(std::min(grid.rows, r + band)) / double(grid.rows));
+  }
+  if (!d.hillshade.empty()) dw::gdal::writeHillshadePng(d.hillshade, grid, raster.data(), d.tiff.nodata);
+  writer.commit();
+  res.write_s = std::chrono::duration<double>(clock::now() - t1).count();
+  return res;
+}
+
+}  // namespace dw_apps

@@ -1,0 +1,145 @@
+/// \file stream_frontier.cpp
+/// \brief Final triangles, the global hull and final rows for the streaming DEM (see stream_frontier.h).
+#include "core/dem/stream_frontier.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "core/dem/ownership.h"
+#include "core/tin/circumdisk_side.h"
+#include "pcl_delaunay_walk/core/geometry/predicates_2d.h"
+
+namespace dw {
+namespace dem {
+namespace detail {
+
+namespace {
+
+/// The part of convex polygon h with y <= seam (Sutherland-Hodgman against one half-plane).
+Hull clipBelow(const Hull& h, double seam) {
+  Hull out;
+  const std::size_t m = h.x.size();
+  for (std::size_t i = 0; i < m; ++i) {
+    const std::size_t j = (i + 1) % m;
+    const bool in_i = h.y[i] <= seam, in_j = h.y[j] <= seam;
+    if (in_i) out.x.push_back(h.x[i]), out.y.push_back(h.y[i]);
+    if (in_i != in_j) {
+      const double t = (seam - h.y[i]) / (h.y[j] - h.y[i]);
+      out.x.push_back(h.x[i] + t * (h.x[j] - h.x[i]));
+      out.y.push_back(seam);
+    }
+  }
+  return out;
+}
+
+/// Distance from p to the convex polygon (0 inside or on it; +inf for an empty polygon).
+double distanceTo(const Hull& h, double px, double py) {
+  const std::size_t m = h.x.size();
+  if (m == 0) return HUGE_VAL;
+  double best = HUGE_VAL;
+  bool inside = m >= 3;
+  for (std::size_t i = 0; i < m; ++i) {
+    const std::size_t j = (i + 1) % m;
+    const double ex = h.x[j] - h.x[i], ey = h.y[j] - h.y[i], wx = px - h.x[i], wy = py - h.y[i];
+    inside = inside && ex * wy - ey * wx >= 0;
+    const double len2 = ex * ex + ey * ey;
+    const double t = len2 > 0 ? std::min(1.0, std::max(0.0, (wx * ex + wy * ey) / len2)) : 0.0;
+    best = std::min(best, std::hypot(wx - t * ex, wy - t * ey));
+  }
+  return inside ? 0.0 : best;
+}
+
+}  // namespace
+
+void splitFinalTriangles(const double* x, const double* y, const index_t* t, std::size_t num_indices,
+                         double seam, const Hull* hull, std::vector<index_t>& final_out,
+                         std::vector<index_t>& open_out) {
+  // Every later point lies in the global hull and has y < seam, so in `below`.
+  const Hull below = hull ? clipBelow(*hull, seam) : Hull();
+  double extent = std::fabs(seam);
+  for (std::size_t i = 0; i < below.x.size(); ++i)
+    extent = std::max({extent, std::fabs(below.x[i]), std::fabs(below.y[i])});
+  for (std::size_t k = 0; k + 2 < num_indices; k += 3) {
+    const index_t a = t[k], b = t[k + 1], c = t[k + 2];
+    // seam = -inf: the last strip, no point is to come.
+    bool final = seam == -HUGE_VAL ||
+                 tin::detail::circumdiskProvablyOnSide(x[a], y[a], x[b], y[b], x[c], y[c], 1, seam, false);
+    double ox, oy, r, margin;
+    if (!final && hull &&
+        tin::detail::circumcircleWithMargin(x[a], y[a], x[b], y[b], x[c], y[c], ox, oy, r, margin)) {
+      // The clip's new vertices and the distance are rounded too: a relative 1e-9 of the magnitudes
+      // covers them many times over.
+      const double slack = margin + 1e-9 * (extent + std::fabs(ox) + std::fabs(oy) + r);
+      final = distanceTo(below, ox, oy) > r + slack;
+    }
+    std::vector<index_t>& out = final ? final_out : open_out;
+    out.insert(out.end(), {a, b, c});
+  }
+}
+
+Hull convexHull(const double* x, const double* y, std::size_t n) {
+  std::vector<index_t> order;
+  order.reserve(n);
+  for (std::size_t i = 0; i < n; ++i)
+    if (std::isfinite(x[i]) && std::isfinite(y[i])) order.push_back(index_t(i));
+  std::sort(order.begin(), order.end(),
+            [&](index_t a, index_t b) { return x[a] < x[b] || (x[a] == x[b] && y[a] < y[b]); });
+  // Lower chain left to right, then upper chain right to left; pop while not a strict left turn.
+  std::vector<index_t> h(2 * order.size() + 1);
+  std::size_t k = 0;
+  auto push = [&](index_t p, std::size_t floor) {
+    while (k >= floor + 2 &&
+           pred::orient2d(x[h[k - 2]], y[h[k - 2]], x[h[k - 1]], y[h[k - 1]], x[p], y[p]) <= 0)
+      --k;
+    h[k++] = p;
+  };
+  for (index_t p : order) push(p, 0);
+  const std::size_t lower = k - (k > 0 ? 1 : 0);
+  for (std::size_t i = order.size(); i-- > 0;) push(order[i], lower);
+  Hull out;
+  const std::size_t m = k > 1 ? k - 1 : k;  // the last vertex repeats the first
+  for (std::size_t i = 0; i < m; ++i) {
+    if (i > 0 && x[h[i]] == x[h[i - 1]] && y[h[i]] == y[h[i - 1]]) continue;
+    out.x.push_back(x[h[i]]);
+    out.y.push_back(y[h[i]]);
+  }
+  return out;
+}
+
+namespace {
+bool insideHull(const Hull& h, double px, double py) {
+  const std::size_t m = h.x.size();
+  if (m < 3) return false;
+  for (std::size_t i = 0; i < m; ++i) {
+    const std::size_t j = (i + 1) % m;
+    if (!ownsEdge(h.x[i], h.y[i], h.x[j], h.y[j], px, py)) return false;
+  }
+  return true;
+}
+}  // namespace
+
+void markFinalCells(const RasterGrid& g, std::size_t row_begin, std::size_t row_end,
+                    const unsigned char* owned, const Hull& hull, unsigned char* final) {
+  for (std::size_t r = row_begin; r < row_end; ++r) {
+    const std::size_t base = (r - row_begin) * g.cols;
+    const double py = g.centreY(r);
+    for (std::size_t c = 0; c < g.cols; ++c)
+      final[base + c] = owned[base + c] || !insideHull(hull, g.centreX(c), py) ? 1 : 0;
+  }
+}
+
+std::size_t leadingFinalRows(const RasterGrid& g, std::size_t row_begin, std::size_t row_end,
+                             const unsigned char* owned, const Hull& hull) {
+  for (std::size_t r = row_begin; r < row_end; ++r) {
+    const unsigned char* row = owned + (r - row_begin) * g.cols;
+    const double py = g.centreY(r);
+    for (std::size_t c = 0; c < g.cols; ++c)
+      if (!row[c] && insideHull(hull, g.centreX(c), py)) return r - row_begin;
+  }
+  return row_end - row_begin;
+}
+
+}  // namespace detail
+}  // namespace dem
+}  // namespace dw

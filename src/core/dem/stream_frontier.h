@@ -1,0 +1,57 @@
+/// \file stream_frontier.h
+/// \brief What a strip-by-strip DEM may write before the rest of the cloud is read (internal; the
+/// building blocks of the streaming mode, docs/dem.md "Beyond memory"). Strips arrive from north to
+/// south, so every point still to come has y < seam.
+///
+/// A triangle of the points read so far whose closed circumdisk lies north of the seam is *final*: no
+/// later point can enter its circle, so it is a triangle of the whole cloud's Delaunay triangulation
+/// (the strip merge's "sure" triangles, src/core/tin/strip_merge.h). A cell is final when a final
+/// triangle owns its centre, or when the centre lies outside the convex hull of the whole cloud
+/// (known from a first pass): no triangle will ever own it. A row of final cells can be rasterised
+/// from the final triangles and written; it equals the in-memory raster's row bit for bit.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "pcl_delaunay_walk/core/dem/raster_grid.h"
+#include "pcl_delaunay_walk/core/graph/types.h"
+
+namespace dw {
+namespace dem {
+namespace detail {
+
+/// A convex polygon, counter-clockwise, without repeated or collinear vertices.
+struct Hull {
+  std::vector<double> x, y;
+};
+
+/// Appends each triangle to `final_out` when its closed circumdisk provably holds no point still to
+/// come, else to `open_out`. Those points have y < seam and, when `hull` (the whole cloud's convex
+/// hull) is given, lie in it: a disk that crosses the seam is still final when it misses the part of
+/// the hull below the seam (the long thin triangles along a straight tile edge have huge circles that
+/// bulge out of the hull). Conservative: a doubtful triangle is open, which only delays it.
+/// seam = -HUGE_VAL: nothing is to come, every triangle is final.
+void splitFinalTriangles(const double* x, const double* y, const index_t* triangles, std::size_t num_indices,
+                         double seam, const Hull* hull, std::vector<index_t>& final_out,
+                         std::vector<index_t>& open_out);
+
+/// The convex hull of the points (Andrew's monotone chain with the exact orient2d); NaN/Inf skipped.
+/// Fewer than three vertices when the points are collinear (then no centre is ever inside).
+Hull convexHull(const double* x, const double* y, std::size_t n);
+
+/// Marks the final cells of rows [row_begin, row_end): final[i] = 1 where owned[i] != 0 (a final
+/// triangle owns the cell, i = (r - row_begin) * grid.cols + c) or the centre is outside `hull` by the
+/// ownership rule of tin_raster.h (no triangle ever will own it), else 0.
+void markFinalCells(const RasterGrid& grid, std::size_t row_begin, std::size_t row_end,
+                    const unsigned char* owned, const Hull& hull, unsigned char* final);
+
+/// The number of leading rows of [row_begin, row_end) whose cells are all final (markFinalCells).
+/// Rows near the hull's long straight edges wait longest (their thin triangles' circles stay open for
+/// many strips), so a writer of GeoTIFF tiles writes each tile once its own cells are final.
+std::size_t leadingFinalRows(const RasterGrid& grid, std::size_t row_begin, std::size_t row_end,
+                             const unsigned char* owned, const Hull& hull);
+
+}  // namespace detail
+}  // namespace dem
+}  // namespace dw

@@ -1,0 +1,22 @@
+# A dw_dem run that fails after the raster is computed (its hillshade goes into a folder that does not
+# exist) must exit non-zero, leave the existing raster byte for byte, and leave no temporary file.
+file(REMOVE_RECURSE ${DIR})
+file(MAKE_DIRECTORY ${DIR})
+file(WRITE ${DIR}/dem.tif "an existing raster")
+execute_process(COMMAND ${DEM} ${IN} -o ${DIR}/dem.tif --resolution 1 --hillshade ${DIR}/missing/shade.png --quiet
+  RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(rc EQUAL 0)
+  message(FATAL_ERROR "dw_dem succeeded although its hillshade folder is missing")
+endif()
+if(NOT err MATCHES "missing/shade.png")
+  message(FATAL_ERROR "the error does not name the hillshade file: ${err}")
+endif()
+file(READ ${DIR}/dem.tif content)
+if(NOT content STREQUAL "an existing raster")
+  message(FATAL_ERROR "the existing raster was changed")
+endif()
+file(GLOB left RELATIVE ${DIR} ${DIR}/* ${DIR}/.*)
+if(NOT left STREQUAL "dem.tif")
+  message(FATAL_ERROR "files left behind: ${left}")
+endif()
+message(STATUS "existing raster kept, no temporary left: ${err}")
