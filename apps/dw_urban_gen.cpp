@@ -195,9 +195,10 @@ int run(const Options& o) {
     so.noise = o.map_noise;
     so.threads = o.threads;
     int last = -1;
-    so.progress = [&](double f) {
+    so.progress = [&](double f) {  // by tens, never backwards (a second round of draws re-estimates)
       const int pct = static_cast<int>(100 * f);
-      if (pct / 10 != last / 10) std::fprintf(stderr, "\rmap: %3d%%", pct);
+      if (pct / 10 <= last / 10) return;
+      std::fprintf(stderr, "\rmap: %3d%%", pct);
       last = pct;
     };
     const dw::sim::SurfaceSamples map = dw::sim::sampleSurfaces(scene, so);
