@@ -27,11 +27,11 @@ struct ViewerOptions {
   std::string tin;     ///< TIN: a mesh PLY (from dw_tin) or a cloud to triangulate here
 
   // Localization / odometry run.
-  std::string map;    ///< the prior (or accumulated) map
-  std::string scan;   ///< the scan of frame `frame`, in its sensor frame
-  std::string poses;  ///< estimated poses, KITTI 3x4 rows (map <- sensor)
-  std::string truth;  ///< optional true poses, same format
-  std::int64_t frame = 0;
+  std::string map;                  ///< the prior (or accumulated) map
+  std::string scan;                 ///< the scan of frame `frame`, in its sensor frame
+  std::string poses;                ///< estimated poses, KITTI 3x4 rows (map <- sensor)
+  std::string truth;                ///< optional true poses, same format
+  std::int64_t frame = -1;          ///< -1: the number of the scan's file name (000050.bin: 50), else 0
   double distance_scale = 0.5;      ///< distance to the map at the end of the colour ramp (m)
   std::size_t map_shown = 1500000;  ///< most map points drawn (every n-th beyond)
 
@@ -85,7 +85,8 @@ inline const char* usageText() {
          "  --threads T               search threads (0: all)\n"
          "  --perturb tx,ty,tz,roll,pitch,yaw   move the source first (degrees)\n"
          "localization:\n"
-         "  --frame K                 the pose of SCAN: line K of the pose files, from 0 (0)\n"
+         "  --frame K                 the pose of SCAN: line K of the pose files, from 0 (default: the\n"
+         "                            number of SCAN's name, as in scans/000050.bin, else 0)\n"
          "  --distance-scale D        distance to the map at the red end of the colours, metres (0.5)\n"
          "  --map-shown N             most map points drawn, every n-th beyond (1500000)\n"
          "display:\n"
@@ -139,6 +140,16 @@ inline std::vector<std::string> splitList(const std::string& text, char sep) {
     begin = end + 1;
   }
   return parts;
+}
+
+/// The frame a scan's file name gives (KITTI and dw_urban_gen name scans 000050.bin): its base name
+/// without the extension, when that is all digits; else 0.
+inline std::int64_t frameOfFileName(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  std::string base = path.substr(slash == std::string::npos ? 0 : slash + 1);
+  base = base.substr(0, base.find('.'));
+  if (base.empty() || base.size() > 12 || base.find_first_not_of("0123456789") != std::string::npos) return 0;
+  return std::stoll(base);
 }
 
 inline dw::BuilderType parseBuilder(const std::string& text) {
@@ -264,6 +275,7 @@ inline ViewerOptions parseViewerOptions(int argc, const char* const* argv) {
     if (!o.keys.empty() || o.iterations >= 0 || o.pick_target >= 0 || o.walk_source >= 0)
       throw dw::Error(
           "dw_viewer: --keys, --iterations, --pick and --walk drive ICP and do not apply to --map");
+    if (o.frame < 0) o.frame = detail::frameOfFileName(o.scan);
     return o;
   }
   if (mesh_mode) {

@@ -82,6 +82,9 @@ TEST(LocalizationData, CommandLineOfTheMode) {
   EXPECT_EQ(o.frame, 7);
   EXPECT_EQ(o.distance_scale, 0.25);
   EXPECT_EQ(o.map_shown, 1000u);
+  EXPECT_EQ(parse({"--map", "m.ply", "--scan", "run/scans/000042.bin", "--poses", "e.txt"}).frame, 42);
+  EXPECT_EQ(parse({"--map", "m.ply", "--scan", "run/scans/frame42.bin", "--poses", "e.txt"}).frame, 0);
+  EXPECT_EQ(parse({"--map", "m.ply", "--scan", "000042.bin", "--poses", "e.txt", "--frame", "3"}).frame, 3);
   EXPECT_THROW(parse({"--map", "m.ply", "--scan", "s.bin"}), dw::Error);
   EXPECT_THROW(parse({"--map", "m.ply", "--scan", "s.bin", "--poses", "e.txt", "a.ply"}), dw::Error);
   EXPECT_THROW(parse({"--map", "m.ply", "--scan", "s.bin", "--poses", "e.txt", "--distance-scale", "0"}),
