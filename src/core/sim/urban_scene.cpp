@@ -48,16 +48,35 @@ struct UrbanScene::Grid {
 UrbanScene::UrbanScene(const GroundModel& ground, double x0, double y0, double x1, double y1)
     : ground_(ground), extent_(x0, y0, x1, y1), grid_mutex_(std::make_unique<std::mutex>()) {}
 UrbanScene::~UrbanScene() = default;
-UrbanScene::UrbanScene(UrbanScene&&) noexcept = default;
-UrbanScene& UrbanScene::operator=(UrbanScene&&) noexcept = default;
+UrbanScene::UrbanScene(UrbanScene&& o) noexcept
+    : ground_(o.ground_),
+      extent_(o.extent_),
+      streets_(o.streets_),
+      primitives_(std::move(o.primitives_)),
+      grid_(std::move(o.grid_)),
+      grid_mutex_(std::move(o.grid_mutex_)),
+      grid_ready_(o.grid_ready_.exchange(nullptr)) {}
+
+UrbanScene& UrbanScene::operator=(UrbanScene&& o) noexcept {
+  ground_ = o.ground_;
+  extent_ = o.extent_;
+  streets_ = o.streets_;
+  primitives_ = std::move(o.primitives_);
+  grid_ = std::move(o.grid_);
+  grid_mutex_ = std::move(o.grid_mutex_);
+  grid_ready_.store(o.grid_ready_.exchange(nullptr));
+  return *this;
+}
 
 void UrbanScene::addPrimitive(const Primitive& p) {
   std::lock_guard<std::mutex> lock(*grid_mutex_);
   primitives_.push_back(p);
+  grid_ready_.store(nullptr);
   grid_.reset();
 }
 
 const UrbanScene::Grid& UrbanScene::grid() const {
+  if (const Grid* ready = grid_ready_.load(std::memory_order_acquire)) return *ready;
   std::lock_guard<std::mutex> lock(*grid_mutex_);
   if (grid_) return *grid_;
   auto g = std::make_unique<Grid>();
@@ -79,6 +98,7 @@ const UrbanScene::Grid& UrbanScene::grid() const {
   for (std::uint32_t i = 0; i < primitives_.size(); ++i)
     forCells(primitives_[i], [&](std::size_t c) { g->ids[count[c]++] = i; });
   grid_ = std::move(g);
+  grid_ready_.store(grid_.get(), std::memory_order_release);
   return *grid_;
 }
 

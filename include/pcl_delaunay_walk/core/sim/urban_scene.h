@@ -10,6 +10,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -109,6 +110,7 @@ class UrbanScene {
   UrbanScene(UrbanScene&&) noexcept;
   UrbanScene& operator=(UrbanScene&&) noexcept;
 
+  /// Not while another thread queries the scene.
   void addPrimitive(const Primitive& p);
 
   /// Nearest hit of the ray o + t d (d unit) with t in (t_min, t_max). Thread-safe.
@@ -139,6 +141,8 @@ class UrbanScene {
   std::vector<Primitive> primitives_;
   mutable std::unique_ptr<Grid> grid_;  ///< built on the first query after the last addPrimitive
   std::unique_ptr<std::mutex> grid_mutex_;
+  /// grid_ once built: queries read it without the lock (every ray asks for the grid).
+  mutable std::atomic<const Grid*> grid_ready_{nullptr};
 };
 
 }  // namespace sim
