@@ -10,6 +10,7 @@
 #include <string>
 
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
+#include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/search/neighbour_search.h"
 #include "pcl_delaunay_walk/core/sim/dataset_files.h"
 #include "pcl_delaunay_walk/core/sim/lidar_sensor.h"
@@ -234,7 +235,21 @@ TEST(DataSetFiles, MapWritesPlyAndAFailedWriteKeepsTheOldFile) {
   ASSERT_EQ(xyz.size(), map.xyz.size());
   for (std::size_t i = 0; i < xyz.size(); ++i) ASSERT_EQ(static_cast<float>(xyz[i]), map.xyz[i]);
   writeMapCloud(tempPath("map.las"), map);
-  EXPECT_GT(slurp(tempPath("map.las")).size(), 375u + 30u * map.size() - 1);
+  {  // the project's LAS reader sees every point, at 1 mm, with its class
+    dw::las::LasReader reader(tempPath("map.las"));
+    ASSERT_EQ(reader.header().point_count, map.size());
+    EXPECT_EQ(reader.header().point_format, 6);
+    std::vector<dw::las::LasRecord> records;
+    std::size_t i = 0;
+    while (reader.read(records) > 0)
+      for (const auto& r : records) {
+        EXPECT_NEAR(r.X * reader.header().scale[0] + reader.header().offset[0], map.xyz[3 * i], 6e-4);
+        EXPECT_NEAR(r.Z * reader.header().scale[2] + reader.header().offset[2], map.xyz[3 * i + 2], 6e-4);
+        EXPECT_EQ(r.classification, lasClass(map.kind[i]));
+        ++i;
+      }
+    EXPECT_EQ(i, map.size());
+  }
   writeMapCloud(tempPath("map.pcd"), map);
   EXPECT_EQ(slurp(tempPath("map.pcd")).find("DATA binary\n") + 12 + 12 * map.size(),
             slurp(tempPath("map.pcd")).size());
