@@ -83,7 +83,8 @@ struct ScanOnMap {
 
 namespace detail {
 inline std::uint64_t voxelKey(std::int64_t x, std::int64_t y, std::int64_t z) {
-  // 21 bits per axis (offset to stay positive): +-1e6 voxels, far beyond any map here.
+  // 21 bits per axis. Beyond +-2^20 voxels (georeferenced maps) keys wrap and distant voxels share a
+  // key: the crop then holds extra points, never fewer, so the distances stay exact.
   const std::uint64_t m = (1u << 21) - 1;
   return ((static_cast<std::uint64_t>(x + (1 << 20)) & m) << 42) |
          ((static_cast<std::uint64_t>(y + (1 << 20)) & m) << 21) |
