@@ -125,10 +125,17 @@ bool UrbanScene::intersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d
   }
   if (!(ta < tb)) return false;
   auto f = [&](double s) { return o.z() + s * d.z() - g.height(o.x() + s * d.x(), o.y() + s * d.y()); };
-  // March in steps of a sixth of the roughness wavelength on the ground, so no bump is stepped over,
-  // then bisect the first sign change.
+  // Lipschitz stepping: along the ray f changes by at most `rate` per metre (|d_z| plus the bound
+  // on the height field's gradient times |d_xy|), so a step of f / rate cannot pass a crossing. Below
+  // kMinStep the steps stay kMinStep: a surface poking above the ray and back within 0.25 m would
+  // need a curvature far beyond the field's. The first sign change is then refined by regula falsi
+  // (Illinois): the field is smooth, so a few evaluations reach 1e-9 m where bisection needs ~40.
+  constexpr double kMinStep = 0.25;
   const double dxy = std::hypot(d.x(), d.y());
-  const double step = dxy > 1e-9 ? std::min(tb - ta, g.roughness_wavelength / 6.0 / dxy) : tb - ta;
+  const double lipschitz = std::hypot(g.slope_x, g.slope_y) +
+                           1.27 * g.undulation_amplitude * kTwoPi / g.undulation_wavelength +
+                           1.52 * g.roughness_amplitude * kTwoPi / g.roughness_wavelength;
+  const double rate = std::fabs(d.z()) + lipschitz * dxy + 1e-12;
   double s0 = ta, f0 = f(s0);
   if (f0 <= 0.0) {
     t = s0;
@@ -136,7 +143,7 @@ bool UrbanScene::intersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d
     bool crossed = false;
     double s1 = s0, f1 = f0;
     while (s0 < tb) {
-      s1 = std::min(tb, s0 + step);
+      s1 = std::min(tb, s0 + std::max(f0 / rate, kMinStep));
       f1 = f(s1);
       if (f1 <= 0.0) {
         crossed = true;
@@ -146,14 +153,27 @@ bool UrbanScene::intersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d
       f0 = f1;
     }
     if (!crossed) return false;
-    for (int k = 0; k < 40 && s1 - s0 > 1e-9; ++k) {
-      const double sm = 0.5 * (s0 + s1);
-      if (f(sm) > 0.0)
-        s0 = sm;
-      else
-        s1 = sm;
+    int side = 0;
+    double c = s1;
+    for (int k = 0; k < 60 && s1 - s0 > 1e-9; ++k) {
+      c = (s0 * f1 - s1 * f0) / (f1 - f0);
+      if (!(c > s0 && c < s1)) c = 0.5 * (s0 + s1);
+      const double fc = f(c);
+      if (std::fabs(fc) < 1e-10) break;
+      if (fc > 0.0) {
+        s0 = c;
+        f0 = fc;
+        if (side > 0) f1 *= 0.5;
+        side = 1;
+      } else {
+        s1 = c;
+        f1 = fc;
+        if (side < 0) f0 *= 0.5;
+        side = -1;
+      }
+      c = s1;
     }
-    t = s1;
+    t = c;
   }
   const double x = o.x() + t * d.x(), y = o.y() + t * d.y();
   return x >= extent_[0] && x <= extent_[2] && y >= extent_[1] && y <= extent_[3] && t > t_min;
