@@ -2,7 +2,9 @@
 /// \brief dw_viewer: watch ICP with the Delaunay walk converge on your own clouds (source points
 /// coloured by their walk length, correspondences, RMS error, NN time), inspect the target's
 /// Delaunay graph, and view TINs from dw_tin coloured by height. --screenshot renders without
-/// interaction (works under xvfb-run) for documentation and tests.
+/// interaction (works under xvfb-run) for documentation and tests. With --map/--scan/--poses it shows
+/// a localization or odometry run: the map, the scan at its estimated pose coloured by its distance
+/// to the map, and the estimated trajectory beside the true one.
 
 // GCC 12 reports -Warray-bounds false positives inside Eigen's umeyama (16-byte SSE loads of a
 // Vector3f) when it inlines PCL's TransformationEstimationSVD; GCC judges the diagnostic by the state
@@ -35,6 +37,7 @@
 #include "viewer/cloud_input.h"
 #include "viewer/colour_map.h"
 #include "viewer/icp_stepper.h"
+#include "viewer/localization_data.h"
 #include "viewer/overlay_layer.h"
 #include "viewer/scene_geometry.h"
 #include "viewer/viewer_options.h"
@@ -596,6 +599,126 @@ int runTin(const dw_viewer::ViewerOptions& o) {
   return 0;
 }
 
+// ------------------------------------------------------------------------------------------------
+// Localization mode
+
+/// Flat colours of the trajectories (overlays are unlit, so these are the pixels' exact values).
+constexpr std::array<double, 3> kEstimateColour{{1.0, 40 / 255.0, 220 / 255.0}};
+constexpr std::array<double, 3> kTruthColour{{40 / 255.0, 1.0, 90 / 255.0}};
+
+int runLocalization(const dw_viewer::ViewerOptions& o) {
+  const dw_viewer::XyzPoints map = dw_viewer::loadPointsAnyFormat(o.map, o.las_class);
+  const dw_viewer::XyzPoints scan = dw_viewer::loadPointsAnyFormat(o.scan);
+  const auto estimate = dw_viewer::loadPoses(o.poses);
+  const auto truth = o.truth.empty() ? std::vector<Eigen::Isometry3d>() : dw_viewer::loadPoses(o.truth);
+  const auto k = static_cast<std::size_t>(o.frame);
+  if (k >= estimate.size())
+    throw dw::Error(format("dw_viewer: --frame %zu is past the end of %s (%zu poses)", k, o.poses.c_str(),
+                           estimate.size()));
+  if (!truth.empty() && k >= truth.size())
+    throw dw::Error(
+        format("dw_viewer: --frame %zu is past the end of %s (%zu poses)", k, o.truth.c_str(), truth.size()));
+  std::cout << "map " << o.map << ": " << map.size() << " points\nscan " << o.scan << ": " << scan.size()
+            << " points, frame " << k << " of " << estimate.size() << "\n";
+  const dw_viewer::ScanOnMap on_map =
+      dw_viewer::scanOnMap(map, scan, estimate[k], o.distance_scale, dw::resolveThreads(o.threads));
+  std::cout << format("distance to the map: median %.3f m, p95 %.3f m, %zu of %zu points at %.2f m or more\n",
+                      on_map.quantile(0.5), on_map.quantile(0.95), on_map.atCap(), scan.size(),
+                      o.distance_scale)
+            << format("walk graph of %zu map points near the scan built in %.2f s, %zu queries in %.3f s\n",
+                      on_map.crop_points, on_map.build_seconds, scan.size(), on_map.query_seconds);
+
+  const auto origin = dw_viewer::chooseOrigin(map.xyz);
+  auto viewer = makeVisualizer(o, "dw_viewer: localization");
+  dw_viewer::OverlayLayer overlay(viewer->getRenderWindow(),
+                                  viewer->getRendererCollection()->GetFirstRenderer());
+  // The map, every n-th point: uniform thinning of a cloud in its file order.
+  const std::size_t stride = std::max<std::size_t>(1, (map.size() + o.map_shown - 1) / o.map_shown);
+  pcl::PointCloud<pcl::PointXYZ>::Ptr shown(new pcl::PointCloud<pcl::PointXYZ>);
+  for (std::size_t i = 0; i < map.size(); i += stride)
+    shown->push_back(pcl::PointXYZ(static_cast<float>(map.xyz[3 * i] - origin[0]),
+                                   static_cast<float>(map.xyz[3 * i + 1] - origin[1]),
+                                   static_cast<float>(map.xyz[3 * i + 2] - origin[2])));
+  viewer->addPointCloud<pcl::PointXYZ>(shown, "map");
+  viewer->setPointCloudRenderingProperties(pcl::visualization::PCL_VISUALIZER_COLOR, 0.55, 0.57, 0.60, "map");
+  viewer->setPointCloudRenderingProperties(pcl::visualization::PCL_VISUALIZER_POINT_SIZE, 1.0, "map");
+  pcl::PointCloud<pcl::PointXYZRGB>::Ptr coloured(new pcl::PointCloud<pcl::PointXYZRGB>);
+  std::vector<float> near_xyz;  // what the camera frames: the scan near the sensor, the trajectories
+  const Eigen::Vector3d sensor = estimate[k].translation();
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    pcl::PointXYZRGB p;
+    p.x = static_cast<float>(on_map.xyz[3 * i] - origin[0]);
+    p.y = static_cast<float>(on_map.xyz[3 * i + 1] - origin[1]);
+    p.z = static_cast<float>(on_map.xyz[3 * i + 2] - origin[2]);
+    const Rgb c = dw_viewer::distanceColour(on_map.distance[i] / o.distance_scale);
+    p.r = c[0];
+    p.g = c[1];
+    p.b = c[2];
+    coloured->push_back(p);
+    if ((Eigen::Vector3d(on_map.xyz[3 * i], on_map.xyz[3 * i + 1], on_map.xyz[3 * i + 2]) - sensor).norm() <
+        40.0)
+      near_xyz.insert(near_xyz.end(), {p.x, p.y, p.z});
+  }
+  viewer->addPointCloud<pcl::PointXYZRGB>(
+      coloured, pcl::visualization::PointCloudColorHandlerRGBField<pcl::PointXYZRGB>(coloured), "scan");
+  viewer->setPointCloudRenderingProperties(pcl::visualization::PCL_VISUALIZER_POINT_SIZE, o.point_size,
+                                           "scan");
+  const auto est_seg = dw_viewer::trajectorySegments(estimate, origin);
+  const auto true_seg = dw_viewer::trajectorySegments(truth, origin);
+  // The truth wider and beneath: where the two coincide, it still shows on both sides.
+  if (!true_seg.empty()) overlay.set("truth", dw_viewer::makeLines(true_seg), kTruthColour, 6.0);
+  if (!est_seg.empty()) overlay.set("estimate", dw_viewer::makeLines(est_seg), kEstimateColour, 3.0);
+  std::vector<float> marker{static_cast<float>(sensor.x() - origin[0]),
+                            static_cast<float>(sensor.y() - origin[1]),
+                            static_cast<float>(sensor.z() - origin[2])};
+  overlay.set("current", dw_viewer::makePoints(marker), {1.0, 1.0, 1.0}, o.point_size + 8);
+  for (const auto* seg : {&est_seg, &true_seg}) near_xyz.insert(near_xyz.end(), seg->begin(), seg->end());
+  near_xyz.insert(near_xyz.end(), marker.begin(), marker.end());
+
+  // Text: the frame, the pose error, the distances; the colour scale at the bottom.
+  const int font = std::max(10, o.height / 56);
+  std::vector<std::string> lines;
+  lines.push_back(format("frame %zu of %zu   scan: %s points   map: %s points (%s shown)", k, estimate.size(),
+                         humanCount(scan.size()).c_str(), humanCount(map.size()).c_str(),
+                         humanCount(shown->size()).c_str()));
+  if (truth.empty()) {
+    lines.push_back("estimated trajectory (magenta); no --truth given");
+  } else {
+    const auto err = dw_viewer::poseError(estimate[k], truth[k]);
+    lines.push_back(
+        format("estimate (magenta) vs truth (green): %.3f m, %.3f deg at this frame", err[0], err[1]));
+  }
+  lines.push_back(format(
+      "distance to the map (Delaunay walk): median %.3f m, p95 %.3f m, %.1f%% at %.2f m or more",
+      on_map.quantile(0.5), on_map.quantile(0.95), 100.0 * on_map.atCap() / scan.size(), o.distance_scale));
+  for (std::size_t r = 0; r < lines.size(); ++r) {
+    const std::string id = "info" + std::to_string(r);
+    viewer->addText(lines[r], 10, o.height - static_cast<int>(r + 1) * (font + 6) - 4, font, 0.92, 0.92, 0.92,
+                    id);
+    shadeText(*viewer, id);
+  }
+  int x = 10;
+  viewer->addText("distance to map (m):", x, 10, font, 0.92, 0.92, 0.92, "legend_title");
+  x += static_cast<int>(font * 11.5);
+  for (int s = 0; s <= 4; ++s) {
+    const Rgb c = dw_viewer::distanceColour(s / 4.0);
+    const std::string label = format(s == 4 ? "%.2f+" : "%.2f", o.distance_scale * s / 4.0);
+    viewer->addText(label, x, 10, font, c[0] / 255.0, c[1] / 255.0, c[2] / 255.0,
+                    "legend" + std::to_string(s));
+    x += static_cast<int>(font * (1.0 + 0.62 * label.size()));
+  }
+  // From behind and above the vehicle, looking ahead: the road, the facades and the path read at once.
+  const Eigen::Vector3d forward = estimate[k].linear().col(0);
+  fitCamera(*viewer, near_xyz, Eigen::Vector3d(-0.9 * forward.x(), -0.9 * forward.y(), 1.0),
+            Eigen::Vector3d(forward.x(), forward.y(), 0.0).normalized(), 0.8);
+  if (!o.screenshot.empty()) {
+    writeScreenshot(*viewer, o.screenshot);
+    return 0;
+  }
+  while (!viewer->wasStopped()) viewer->spinOnce(30);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -617,7 +740,12 @@ int main(int argc, char** argv) {
       throw dw::Error(
           "dw_viewer: no X display (DISPLAY is unset). For screenshots without a screen run "
           "xvfb-run -a -s \"-screen 0 1280x1024x24\" dw_viewer ... --screenshot out.png");
-    return o.mode == dw_viewer::Mode::Icp ? runIcp(o) : runTin(o);
+    switch (o.mode) {
+      case dw_viewer::Mode::Icp: return runIcp(o);
+      case dw_viewer::Mode::Tin: return runTin(o);
+      case dw_viewer::Mode::Localization: return runLocalization(o);
+    }
+    return 1;
   } catch (const std::exception& e) {
     std::cerr << e.what() << "\n";
     return 1;

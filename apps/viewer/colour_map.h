@@ -1,6 +1,6 @@
 /// \file colour_map.h
 /// \brief Colours of the viewer: a discrete scale for walk lengths (so that a length reads the same
-/// in every iteration) and a continuous hypsometric ramp for TIN heights.
+/// in every iteration), a continuous hypsometric ramp for TIN heights, and a ramp for distances to a map.
 #pragma once
 
 #include <algorithm>
@@ -44,6 +44,15 @@ inline Rgb walkColour(std::uint32_t steps, int scale) {
 inline Rgb heightColour(double t) {
   static const std::array<Rgb, 5> anchors{
       {{{30, 110, 60}}, {{120, 170, 70}}, {{215, 195, 110}}, {{150, 100, 60}}, {{245, 245, 245}}}};
+  return detail::rampColour(anchors, t);
+}
+
+/// Colour of a distance to the map, t = distance / scale in [0, 1]: blue on the map, through cyan and
+/// yellow to red at the scale and beyond. It stays away from pure green and magenta, the colours of
+/// the trajectories drawn over it.
+inline Rgb distanceColour(double t) {
+  static const std::array<Rgb, 5> anchors{
+      {{{50, 90, 230}}, {{0, 190, 210}}, {{250, 220, 40}}, {{240, 120, 20}}, {{220, 30, 30}}}};
   return detail::rampColour(anchors, t);
 }
 

@@ -1,6 +1,6 @@
 /// \file viewer_options.h
-/// \brief Command line of dw_viewer: what to show (ICP or TIN), how to run ICP, and the screenshot
-/// mode. Parsing is strict (a typo must not silently change the demo) and throws dw::Error.
+/// \brief Command line of dw_viewer: what to show (ICP, TIN or a localization run), how to run ICP, and the
+/// screenshot mode. Parsing is strict (a typo must not silently change the demo) and throws dw::Error.
 #pragma once
 
 #include <array>
@@ -18,13 +18,22 @@
 
 namespace dw_viewer {
 
-enum class Mode { Icp, Tin };
+enum class Mode { Icp, Tin, Localization };
 
 struct ViewerOptions {
   Mode mode = Mode::Icp;
   std::string source;  ///< ICP: the cloud that moves
   std::string target;  ///< ICP: the reference whose Delaunay graph is walked
   std::string tin;     ///< TIN: a mesh PLY (from dw_tin) or a cloud to triangulate here
+
+  // Localization / odometry run.
+  std::string map;                  ///< the prior (or accumulated) map
+  std::string scan;                 ///< the scan of frame `frame`, in its sensor frame
+  std::string poses;                ///< estimated poses, KITTI 3x4 rows (map <- sensor)
+  std::string truth;                ///< optional true poses, same format
+  std::int64_t frame = -1;          ///< -1: the number of the scan's file name (000050.bin: 50), else 0
+  double distance_scale = 0.5;      ///< distance to the map at the end of the colour ramp (m)
+  std::size_t map_shown = 1500000;  ///< most map points drawn (every n-th beyond)
 
   // ICP, with stock PCL's defaults where PCL has one (so the run matches pcl::IterativeClosestPoint).
   int max_iterations = 30;
@@ -62,7 +71,10 @@ struct ViewerOptions {
 inline const char* usageText() {
   return "usage: dw_viewer SOURCE TARGET [options]     ICP with the Delaunay walk, step by step\n"
          "       dw_viewer --tin MESH_OR_CLOUD [options] a TIN (PLY from dw_tin, or a cloud to triangulate)\n"
-         "clouds: .pcd, .ply (x, y, z of any numeric type) or .las (uncompressed LAS 1.0-1.4)\n"
+         "       dw_viewer --map MAP --scan SCAN --poses EST.txt [--truth TRUE.txt] [--frame K] [options]\n"
+         "                                               a localization or odometry run at frame K\n"
+         "clouds: .pcd, .ply (x, y, z of any numeric type) or .las (uncompressed LAS 1.0-1.4); maps and\n"
+         "        scans also KITTI .bin. Poses: KITTI 3x4 rows, map <- sensor\n"
          "  --las-class C             LAS inputs: keep only class C (2 = ground)\n"
          "ICP:\n"
          "  --max-iterations N        ICP iteration limit (30)\n"
@@ -72,6 +84,11 @@ inline const char* usageText() {
          "  --builder B               graph builder: auto, qhull, incremental\n"
          "  --threads T               search threads (0: all)\n"
          "  --perturb tx,ty,tz,roll,pitch,yaw   move the source first (degrees)\n"
+         "localization:\n"
+         "  --frame K                 the pose of SCAN: line K of the pose files, from 0 (default: the\n"
+         "                            number of SCAN's name, as in scans/000050.bin, else 0)\n"
+         "  --distance-scale D        distance to the map at the red end of the colours, metres (0.5)\n"
+         "  --map-shown N             most map points drawn, every n-th beyond (1500000)\n"
          "display:\n"
          "  --screenshot OUT.png      render without interaction, write the PNG, exit\n"
          "  --iterations N            with --screenshot: ICP iterations to run first (default: all; 0 with "
@@ -125,6 +142,16 @@ inline std::vector<std::string> splitList(const std::string& text, char sep) {
   return parts;
 }
 
+/// The frame a scan's file name gives (KITTI and dw_urban_gen name scans 000050.bin): its base name
+/// without the extension, when that is all digits; else 0.
+inline std::int64_t frameOfFileName(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  std::string base = path.substr(slash == std::string::npos ? 0 : slash + 1);
+  base = base.substr(0, base.find('.'));
+  if (base.empty() || base.size() > 12 || base.find_first_not_of("0123456789") != std::string::npos) return 0;
+  return std::stoll(base);
+}
+
 inline dw::BuilderType parseBuilder(const std::string& text) {
   if (text == "auto") return dw::BuilderType::Auto;
   if (text == "qhull") return dw::BuilderType::Qhull;
@@ -151,6 +178,22 @@ inline ViewerOptions parseViewerOptions(int argc, const char* const* argv) {
     } else if (arg == "--tin") {
       mesh_mode = true;
       o.tin = value();
+    } else if (arg == "--map") {
+      o.map = value();
+    } else if (arg == "--scan") {
+      o.scan = value();
+    } else if (arg == "--poses") {
+      o.poses = value();
+    } else if (arg == "--truth") {
+      o.truth = value();
+    } else if (arg == "--frame") {
+      o.frame = detail::parseInteger(arg, value(), 0, std::numeric_limits<std::int64_t>::max());
+    } else if (arg == "--distance-scale") {
+      o.distance_scale = detail::parseNumber(arg, value());
+      if (!(o.distance_scale > 0 && o.distance_scale <= 1000))
+        throw dw::Error("dw_viewer: --distance-scale must be in (0, 1000] metres");
+    } else if (arg == "--map-shown") {
+      o.map_shown = static_cast<std::size_t>(detail::parseInteger(arg, value(), 1, 1LL << 40));
     } else if (arg == "--las-class") {
       o.las_class = static_cast<int>(detail::parseInteger(arg, value(), 0, 255));
     } else if (arg == "--max-iterations") {
@@ -221,6 +264,20 @@ inline ViewerOptions parseViewerOptions(int argc, const char* const* argv) {
     }
   }
   if (o.help) return o;
+  const bool run_mode = !o.map.empty() || !o.scan.empty() || !o.poses.empty() || !o.truth.empty();
+  if (run_mode) {
+    o.mode = Mode::Localization;
+    if (mesh_mode || !positional.empty())
+      throw dw::Error("dw_viewer: --map/--scan/--poses show a localization run and take no other files");
+    if (o.map.empty() || o.scan.empty() || o.poses.empty())
+      throw dw::Error(
+          "dw_viewer: a localization run needs --map, --scan and --poses (and optionally --truth)");
+    if (!o.keys.empty() || o.iterations >= 0 || o.pick_target >= 0 || o.walk_source >= 0)
+      throw dw::Error(
+          "dw_viewer: --keys, --iterations, --pick and --walk drive ICP and do not apply to --map");
+    if (o.frame < 0) o.frame = detail::frameOfFileName(o.scan);
+    return o;
+  }
   if (mesh_mode) {
     o.mode = Mode::Tin;
     if (!positional.empty()) throw dw::Error("dw_viewer: --tin takes one file and no SOURCE/TARGET");

@@ -5,7 +5,10 @@ Modes:
   --app APP --out OUT.png --size WxH [--background R,G,B] [--make-mesh PLY] -- ARGS...
       runs `xvfb-run APP ARGS --screenshot OUT --size WxH`, then checks that OUT is a PNG of exactly
       WxH pixels and that enough of its pixels differ from the background colour; with
-      --expect-stdout TEXT (repeatable) also that the run printed these texts in this order.
+      --expect-stdout TEXT (repeatable) also that the run printed these texts in this order; with
+      --expect-colour R,G,B,N (repeatable) that at least N pixels have that colour (within 8 per
+      channel); with --make-drifted-poses TRUE OUT first writes OUT, the KITTI poses of TRUE with a
+      translation drift growing by (0.05, 0.03, 0) m per frame (an "estimate" to show beside them).
   --app APP [--no-display] --expect-error RC TEXT -- ARGS...
       runs APP ARGS (under xvfb-run unless --no-display, which also removes DISPLAY) and checks that it
       exits with RC and says TEXT on stderr, without a crash.
@@ -106,8 +109,9 @@ def write_png(path, width, height, pixel):
                 chunk(b"IDAT", zlib.compress(bytes(raw))) + chunk(b"IEND", b""))
 
 
-def check_png(path, width, height, background, min_fraction, tolerance=3):
-    """Returns a list of problems (empty when the image passes)."""
+def check_png(path, width, height, background, min_fraction, tolerance=3, colours=()):
+    """Returns a list of problems (empty when the image passes). colours: (r, g, b, n) tuples, each
+    needing n pixels within 8 per channel of (r, g, b)."""
     try:
         w, h, channels, rows = read_png(path)
     except (OSError, PngError, zlib.error) as e:
@@ -131,6 +135,11 @@ def check_png(path, width, height, background, min_fraction, tolerance=3):
     if fraction < min_fraction:
         problems.append("only %.3f%% of the pixels differ from the background (need %.1f%%)" %
                         (100 * fraction, 100 * min_fraction))
+    for r, g, b, need in colours:
+        have = sum(n for px, n in counts.items() if all(abs(p - c) <= 8 for p, c in zip(px, (r, g, b))))
+        print("%s: %d pixels of colour (%d, %d, %d)" % (path, have, r, g, b))
+        if have < need:
+            problems.append("only %d pixels of colour (%d, %d, %d), need %d" % (have, r, g, b, need))
     return problems
 
 
@@ -148,6 +157,10 @@ def self_test():
         failures.append("a wrongly sized image passed")
     if check_png(drawn, 64, 48, bg, 0.01):
         failures.append("a valid image failed")
+    if check_png(drawn, 64, 48, bg, 0.01, colours=[(200, 120, 40, 400)]):
+        failures.append("a colour that is present was not found")
+    if not check_png(drawn, 64, 48, bg, 0.01, colours=[(40, 255, 90, 1)]):
+        failures.append("a colour that is absent was found")
     corrupt = os.path.join(tmp, "corrupt.png")
     with open(drawn, "rb") as f:
         data = bytearray(f.read())
@@ -189,6 +202,24 @@ def make_terrain_mesh(path, n=40):
             f.write("%d %s\n" % (len(face), " ".join(map(str, face))))
 
 
+def make_drifted_poses(truth, out):
+    """Writes the KITTI poses of `truth` with a translation drift growing by (0.05, 0.03, 0) m per frame."""
+    rows = []
+    with open(truth) as f:
+        for line in f:
+            v = [float(t) for t in line.split()]
+            if not v:
+                continue
+            if len(v) != 12:
+                raise ValueError("%s: a line without 12 numbers" % truth)
+            k = len(rows)
+            v[3] += 0.05 * k
+            v[7] += 0.03 * k
+            rows.append(" ".join("%.9e" % t for t in v))
+    with open(out, "w") as f:
+        f.write("\n".join(rows) + "\n")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--self-test", action="store_true")
@@ -198,6 +229,9 @@ def main():
     ap.add_argument("--background")
     ap.add_argument("--min-fraction", type=float, default=0.02)
     ap.add_argument("--make-mesh")
+    ap.add_argument("--make-drifted-poses", nargs=2, metavar=("TRUE", "OUT"))
+    ap.add_argument("--expect-colour", action="append", default=[],
+                    help="R,G,B,N: at least N pixels of this colour (repeatable)")
     ap.add_argument("--require-file", action="append", default=[],
                     help="skip (exit 77) when this input is absent (shared data)")
     ap.add_argument("--no-display", action="store_true")
@@ -244,6 +278,9 @@ def main():
     background = tuple(int(v) for v in opt.background.split(",")) if opt.background else None
     if opt.make_mesh:
         make_terrain_mesh(opt.make_mesh)
+    if opt.make_drifted_poses:
+        make_drifted_poses(*opt.make_drifted_poses)
+    colours = [tuple(int(v) for v in c.split(",")) for c in opt.expect_colour]
     if os.path.exists(opt.out):
         os.remove(opt.out)
     cmd = prefix + [opt.app] + opt.args + ["--screenshot", opt.out, "--size", opt.size]
@@ -256,7 +293,7 @@ def main():
     if not os.path.exists(opt.out):
         print("FAIL: no screenshot at %s" % opt.out)
         return 1
-    problems = check_png(opt.out, width, height, background, opt.min_fraction)
+    problems = check_png(opt.out, width, height, background, opt.min_fraction, colours=colours)
     pos = 0
     for text in opt.expect_stdout:
         found = run.stdout.find(text, pos)
