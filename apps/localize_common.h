@@ -168,9 +168,12 @@ inline void plotFrames(const std::string& prefix, const std::vector<FrameLog>& l
   const std::string script = env ? env : DW_PLOT_SCRIPT;
   if (!std::ifstream(script).good())
     throw dw::Error("--plot: the plotting script '" + script + "' is missing (set DW_PLOT_SCRIPT)");
-  const std::string cmd = "python3 '" + script + "' '" + csv + "' '" + prefix + "' '" + title + "'";
+  const char* py = std::getenv("DW_PYTHON");
+  const std::string python = py ? py : DW_PLOT_PYTHON;
+  const std::string cmd = "'" + python + "' '" + script + "' '" + csv + "' '" + prefix + "' '" + title + "'";
   if (std::system(cmd.c_str()) != 0)
-    throw dw::Error("--plot: '" + cmd + "' failed (python3 with matplotlib?)");
+    throw dw::Error("--plot: '" + cmd +
+                    "' failed (python3 with matplotlib? DW_PYTHON picks the interpreter)");
 }
 
 }  // namespace dw_apps
