@@ -314,7 +314,8 @@ void benchScene(const Scene& s, const Options& o) {
     auto g = std::make_shared<const dw::DelaunayGraph>(
         dw::buildDelaunayGraph(dw::PointView::fromFloat(s.map.data(), s.map.size() / 3), b));
     const dw::WalkCorrespondenceSearch search(
-        std::make_shared<const dw::CallerMetricSearch>(g, s.map, std::vector<std::int32_t>{}));
+        std::make_shared<const dw::CallerMetricSearch>(g, s.map, std::vector<std::int32_t>{}),
+        dw::StartStrategy::PnnOptimized, 4.0 * o.max_distance);  // as dw::Localizer sets it
     r.build_s = since(t0);
     runLoop(search, s, o, r);
     runs.push_back(std::move(r));

@@ -98,6 +98,8 @@ void Localizer::setOptions(const LocalizerOptions& options) {
   if (!(options.voxel >= 0)) throw Error("dw::Localizer: voxel must be >= 0");
   options_ = options;
   options_.icp.num_threads = options.num_threads;
+  // A start farther than a few correspondence distances walks farther than a KD-ANN descent costs.
+  search_->setMaxHintDistance(4.0 * options_.icp.max_correspondence_distance);
   if (options_.icp.metric == IcpMetric::PointToPlane) mapNormals();
 }
 

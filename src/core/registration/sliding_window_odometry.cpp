@@ -70,8 +70,12 @@ FrameResult SlidingWindowOdometry::registerScan(const PointView& scan) {
     const Vec3f& p = graph->points[graph->input_to_vertex[i]];
     xyz[3 * i] = p.x, xyz[3 * i + 1] = p.y, xyz[3 * i + 2] = p.z;
   }
+  // The graph's vertex ids change every frame, so the kept hints are arbitrary vertices: a far one
+  // is dropped for a KD-ANN start.
   const WalkCorrespondenceSearch search(std::make_shared<const CallerMetricSearch>(
-      std::move(graph), std::move(xyz), std::vector<std::int32_t>{}));
+                                            std::move(graph), std::move(xyz), std::vector<std::int32_t>{}),
+                                        StartStrategy::PnnOptimized,
+                                        4.0 * options_.icp.max_correspondence_distance);
   stats_.graph_seconds += since(tg);
   IcpOptions icp = options_.icp;
   icp.num_threads = options_.num_threads;

@@ -52,7 +52,7 @@ TEST(SlidingWindowOdometry, FollowsAKnownTrajectory) {
 
 TEST(SlidingWindowOdometry, WindowKeepsToRangeAndAge) {
   const std::vector<float> scene = dw_test::dragonScene();
-  const auto truth = dw_test::arcTrajectory(8);
+  const auto truth = dw_test::arcTrajectory(6);
   dw::OdometryOptions o = sceneOptions();
   o.max_age = 3;
   o.max_range = 6.0;
@@ -84,9 +84,9 @@ std::set<std::pair<Id, Id>> idEdges(const dw::DelaunayGraph& g, const std::vecto
 
 TEST(SlidingWindowOdometry, MapAfterNFramesEqualsAFreshBuildOfTheWindow) {
   const std::vector<float> scene = dw_test::dragonScene();
-  const auto truth = dw_test::arcTrajectory(12);
+  const auto truth = dw_test::arcTrajectory(8);
   dw::OdometryOptions o = sceneOptions();
-  o.max_age = 4;
+  o.max_age = 3;
   dw::SlidingWindowOdometry odo(o);
   for (std::size_t k = 0; k < truth.size(); ++k) {
     const std::vector<float> scan = dw_test::cutScan(scene, truth[k], 8.0, unsigned(k + 21));
