@@ -24,23 +24,21 @@ std::vector<float> voxelDownsample(const PointView& points, double leaf) {
     return out;
   }
   if (finite.empty()) return out;
-  std::array<double, 3> lo = finite[0];
-  for (const auto& p : finite)
-    for (int c = 0; c < 3; ++c) lo[c] = std::min(lo[c], p[c]);
-  std::array<std::int64_t, 3> base;
-  for (int c = 0; c < 3; ++c) base[c] = static_cast<std::int64_t>(std::floor(lo[c] / leaf));
-  constexpr std::int64_t kMax = (std::int64_t(1) << 21) - 1;
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(finite.size());
+  // Voxel indices as three 64-bit integers; a point whose index would not fit (|x| / leaf >= 2^62,
+  // e.g. a stray 1e30) has no voxel and is dropped like a non-finite one.
+  using Key = std::array<std::int64_t, 3>;
+  std::vector<std::pair<Key, std::uint32_t>> keyed;
+  keyed.reserve(finite.size());
+  constexpr double kLimit = 4.6e18;  // just under 2^62
   for (std::size_t i = 0; i < finite.size(); ++i) {
-    std::uint64_t key = 0;
+    Key key;
+    bool fits = true;
     for (int c = 0; c < 3; ++c) {
-      const std::int64_t v = static_cast<std::int64_t>(std::floor(finite[i][c] / leaf)) - base[c];
-      if (v < 0 || v > kMax)
-        throw Error("dw::voxelDownsample: the cloud spans more than 2^21 voxels of " + std::to_string(leaf) +
-                    " along one axis");
-      key = (key << 21) | std::uint64_t(v);
+      const double v = std::floor(finite[i][c] / leaf);
+      fits = fits && std::fabs(v) < kLimit;
+      key[c] = fits ? static_cast<std::int64_t>(v) : 0;
     }
-    keyed[i] = {key, std::uint32_t(i)};
+    if (fits) keyed.emplace_back(key, std::uint32_t(i));
   }
   std::sort(keyed.begin(), keyed.end());
   for (std::size_t b = 0; b < keyed.size();) {

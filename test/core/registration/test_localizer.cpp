@@ -169,6 +169,11 @@ TEST(VoxelDownsample, OneCentroidPerOccupiedVoxelInKeyOrder) {
   EXPECT_FLOAT_EQ(out[3], 0.2f);   // the two points of voxel (0, 0, 0) averaged
   EXPECT_FLOAT_EQ(out[6], 1.5f);
   EXPECT_EQ(dw::voxelDownsample(dw::PointView::fromFloat(pts.data(), 5), 0).size(), 12u);  // finite ones
+  // A stray point whose voxel index would overflow is dropped, never an error.
+  const std::vector<float> stray = {1e30f, 0, 0, 0.5f, 0.5f, 0.5f};
+  const std::vector<float> kept = dw::voxelDownsample(dw::PointView::fromFloat(stray.data(), 2), 1e-12);
+  ASSERT_EQ(kept.size(), 3u);
+  EXPECT_FLOAT_EQ(kept[0], 0.5f);
 }
 
 TEST(KittiPoses, RoundTripAndErrorsNameTheLine) {

@@ -11,8 +11,8 @@ namespace dw {
 
 /// The centroid of the finite points in each occupied voxel of edge `leaf` (cubes aligned at the
 /// origin), 3 floats per voxel in ascending voxel order, so equal inputs give equal outputs. A leaf
-/// <= 0 copies the finite points unchanged. Throws dw::Error when the extent over leaf overflows the
-/// 21-bit voxel keys.
+/// <= 0 copies the finite points unchanged. Points so far out that their voxel index passes 2^62 are
+/// dropped like non-finite ones; nothing throws.
 std::vector<float> voxelDownsample(const PointView& points, double leaf);
 
 }  // namespace dw
