@@ -24,4 +24,4 @@ echo "test_core_registration exit $? ($(grep -c '^\[       OK' "$OUT/test_core_r
 
 echo "== localization: KITTI pair and a $MAP-point map, 120k-point scans, 16 threads; map maintenance"
 timeout 200 "$BUILD/bench/dw_localize_bench" --kitti "$DEPS/data/scans" --map-points "$MAP" --scan-points 120k \
-  --frames 16 --threads 16 --odometry 2>&1 | tee "$OUT/localize_bench.txt"
+  --frames 16 --threads 16 --odometry --graph-file /tmp/dw-localize-map.graph 2>&1 | tee "$OUT/localize_bench.txt"
