@@ -8,6 +8,7 @@
 #include <pcl/point_types.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
