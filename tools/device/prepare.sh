@@ -24,11 +24,15 @@ set(Qhull_FOUND TRUE)
 CFG
 
 cp /usr/include/nanoflann.hpp "$DEPS/nanoflann/"
+# nanoflann 1.12.1, the localization benchmark's peer (tools/device/localize.sh), and the KITTI frames.
+PEERS=${DW_PEERS_DIR:-$ROOT/../shared/peers}
+mkdir -p "$DEPS/peers/nanoflann/include"
+cp "$PEERS/nanoflann/include/nanoflann.hpp" "$DEPS/peers/nanoflann/include/"
 
 for f in dragon_vrip.ply.gz dragon_vrip_res2.ply.gz dragon_vrip_res3.ply dragon_vrip_res4.ply bun000.ply bun045.ply; do
   cp "$DATA/models/$f" "$DEPS/data/models/"
 done
-for f in fastgicp_251370668.pcd fastgicp_251371071.pcd fastgicp_relative.txt; do
+for f in fastgicp_251370668.pcd fastgicp_251371071.pcd fastgicp_relative.txt kitti_000000.bin kitti_000001.bin; do
   cp "$DATA/scans/$f" "$DEPS/data/scans/"
 done
 du -sh "$DEPS"

@@ -1,0 +1,64 @@
+/// \file walk_correspondence_search.h
+/// \brief The Delaunay walk as the ICP loop's correspondence search: exact nearest neighbours in the
+/// caller's float metric (dw::CallerMetricSearch), each query warm-started at its previous answer (PNN),
+/// or by the KD-ANN locator when it has none (PNN-optimized) or when the hint lies farther from the
+/// query than max_hint_distance: a hint kept from another frame (scan point i of the last frame) can be
+/// anywhere when the scans do not keep their point order, and a walk costs steps in proportion to
+/// the distance it covers, while KD-ANN costs one descent.
+#pragma once
+
+#include <limits>
+#include <memory>
+
+#include "pcl_delaunay_walk/core/registration/icp.h"
+#include "pcl_delaunay_walk/core/search/caller_metric_search.h"
+
+namespace dw {
+
+class WalkCorrespondenceSearch final : public CorrespondenceSearch {
+ public:
+  /// The search's inputs are the map points (its input_to_cloud must be the identity).
+  /// \param[in] max_hint_distance hints farther than this from the query are dropped (infinity: never)
+  explicit WalkCorrespondenceSearch(std::shared_ptr<const CallerMetricSearch> search,
+                                    StartStrategy strategy = StartStrategy::PnnOptimized,
+                                    double max_hint_distance = std::numeric_limits<double>::infinity())
+      : search_(std::move(search)), strategy_(strategy) {
+    setMaxHintDistance(max_hint_distance);
+    if (!search_) throw Error("dw::WalkCorrespondenceSearch: no search");
+    if (!search_->inputToCloud().empty())
+      throw Error("dw::WalkCorrespondenceSearch: the map search must index its inputs directly");
+  }
+
+  std::size_t size() const override { return search_->numInputs(); }
+  const float* point(std::size_t i) const override { return &search_->inputXyz()[3 * i]; }
+  bool nearest(const float q[3], index_t& hint, std::int32_t& index, float& dist2) const override {
+    if (hint != kInvalidIndex && max_hint2_ < std::numeric_limits<float>::infinity()) {
+      const DelaunayGraph& g = search_->graph();
+      if (hint >= g.numVertices() ||
+          squaredDistance(g.toLocal(q[0], q[1], q[2]), g.points[hint]) > max_hint2_)
+        hint = kInvalidIndex;
+    }
+    WalkNeighbour nb;
+    CallerMetricSearchStats stats;
+    if (!search_->nearest(q, strategy_, hint, nb, &stats)) return false;
+    hint = stats.nn_vertex;
+    index = nb.index;
+    dist2 = nb.sqr_distance;
+    return true;
+  }
+  void prefetch(index_t hint) const override { search_->prefetchStart(hint); }
+
+  void setMaxHintDistance(double d) {
+    max_hint2_ = d < 1e18 ? static_cast<float>(d * d) : std::numeric_limits<float>::infinity();
+  }
+
+  const CallerMetricSearch& callerSearch() const { return *search_; }
+  const std::shared_ptr<const CallerMetricSearch>& callerSearchPtr() const { return search_; }
+
+ private:
+  std::shared_ptr<const CallerMetricSearch> search_;
+  StartStrategy strategy_;
+  float max_hint2_ = std::numeric_limits<float>::infinity();
+};
+
+}  // namespace dw
