@@ -62,7 +62,7 @@ struct ViewerOptions {
 inline const char* usageText() {
   return "usage: dw_viewer SOURCE TARGET [options]     ICP with the Delaunay walk, step by step\n"
          "       dw_viewer --tin MESH_OR_CLOUD [options] a TIN (PLY from dw_tin, or a cloud to triangulate)\n"
-         "clouds: .pcd, .ply (x, y, z of any numeric type) or .las (uncompressed LAS 1.0-1.4)\n"
+         "clouds: .pcd, .ply (x, y, z of any numeric type) or .las/.laz (LAS 1.0-1.4, LAZ)\n"
          "  --las-class C             LAS inputs: keep only class C (2 = ground)\n"
          "ICP:\n"
          "  --max-iterations N        ICP iteration limit (30)\n"
