@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <string>
 #include <thread>
 #include <vector>
@@ -61,8 +62,15 @@ inline std::uint64_t pointHash(std::int32_t x, std::int32_t y, std::int32_t z) {
   return h ^ (h >> 29);
 }
 
+double processCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
 struct Result {
   double seconds = 1e300;
+  double cpu_seconds = 1e300;  ///< process CPU time: on a shared machine steadier than wall time
   double peak_mb = 0;
   std::uint64_t checksum = 0;
 };
@@ -78,6 +86,7 @@ Result decodeChunks(const std::string& path, unsigned threads) {
   Result r;
   const long base = dw::processStatusKb("VmRSS:");
   dw::resetPeakResident();
+  const double c0 = processCpuSeconds();
   const auto t0 = Clock::now();
   const dw::las::LazChunks chunks(fileno(f), path, h, size);
   std::atomic<std::size_t> next{0};
@@ -106,6 +115,7 @@ Result decodeChunks(const std::string& path, unsigned threads) {
   work(0);
   for (auto& t : pool) t.join();
   r.seconds = since(t0);
+  r.cpu_seconds = processCpuSeconds() - c0;
   for (const std::string& e : errors)
     if (!e.empty()) throw dw::las::LasError(e);
   for (std::uint64_t s : sums) r.checksum += s;
@@ -119,11 +129,13 @@ Result readArrays(const std::string& path, unsigned threads) {
   Result r;
   const long base = dw::processStatusKb("VmRSS:");
   dw::resetPeakResident();
+  const double c0 = processCpuSeconds();
   const auto t0 = Clock::now();
   dw::las::LasReadOptions o;
   o.threads = threads;
   const dw::las::LasCloud c = dw::las::readLasFile(path, o);
   r.seconds = since(t0);
+  r.cpu_seconds = processCpuSeconds() - c0;
   r.peak_mb = (double(dw::processStatusKb("VmHWM:") - base) * 1024.0 - 12.0 * double(c.size())) / 1048576.0;
   for (std::size_t i = 0; i < c.size(); ++i) r.checksum += pointHash(c.X[i], c.Y[i], c.Z[i]);
   return r;
@@ -164,8 +176,9 @@ void writeTile(const std::string& path, const GenOptions& g) {
                path.c_str(), since(t0));
 }
 
-/// laz-perf's best single-thread rate in points/s (0 when it did not run), its output echoed.
-double runLazPerf(const std::string& dir, const std::string& file, unsigned repeats) {
+/// laz-perf's best single-thread rate in points/s (0 when it did not run) and, in `cpu`, its best
+/// pass's CPU seconds; its output echoed.
+double runLazPerf(const std::string& dir, const std::string& file, unsigned repeats, double& cpu) {
   const std::string cmd = "node '" + std::string(DW_BENCH_DIR) + "/laz_perf_decode.js' '" + dir + "' '" +
                           file + "' " + std::to_string(repeats) + " 2>&1";
   std::FILE* p = popen(cmd.c_str(), "r");
@@ -177,6 +190,8 @@ double runLazPerf(const std::string& dir, const std::string& file, unsigned repe
     const char* at = std::strstr(line, "laz-perf best:");
     const char* eq = at ? std::strstr(at, "= ") : nullptr;
     if (eq) rate = std::atof(eq + 2) * 1e6;
+    const char* c = at ? std::strstr(at, "cpu ") : nullptr;
+    if (c) cpu = std::atof(c + 4);
   }
   const int rc = pclose(p);
   return rc == 0 ? rate : 0;
@@ -234,10 +249,10 @@ int main(int argc, char** argv) {
     std::printf("input %s: %llu points, format %u, %u-byte records; hardware threads %u\n", file.c_str(),
                 static_cast<unsigned long long>(n), unsigned(probe.header().point_format),
                 unsigned(probe.header().record_length), std::thread::hardware_concurrency());
-    std::printf("%-12s %7s %9s %9s %8s %8s %s\n", "what", "threads", "seconds", "Mpts/s", "speedup",
-                "peak_MB", "checksum");
+    std::printf("%-12s %7s %9s %9s %9s %8s %8s %s\n", "what", "threads", "seconds", "cpu_s", "Mpts/s",
+                "speedup", "peak_MB", "checksum");
     int rc = 0;
-    double decode1 = 0;
+    double decode1 = 0, decode1_cpu = 0;
     for (int kind = 0; kind < 2; ++kind) {
       std::vector<Result> results;
       for (unsigned t : threads) {
@@ -247,25 +262,34 @@ int main(int argc, char** argv) {
           if (r > 0 && x.checksum != best.checksum) throw dw::Error("checksum changed between repeats");
           best.checksum = x.checksum;
           best.seconds = std::min(best.seconds, x.seconds);
+          best.cpu_seconds = std::min(best.cpu_seconds, x.cpu_seconds);
           best.peak_mb = std::max(best.peak_mb, x.peak_mb);
         }
         results.push_back(best);
         const bool same = best.checksum == results.front().checksum;
         if (!same) rc = 3;
-        std::printf("%-12s %7u %9.4f %9.3f %8.2f %8.1f %016llx%s\n", kind == 0 ? "decode" : "readLasFile", t,
-                    best.seconds, double(n) / best.seconds / 1e6, results.front().seconds / best.seconds,
-                    best.peak_mb, static_cast<unsigned long long>(best.checksum), same ? "" : "  DIFFERENT");
+        std::printf("%-12s %7u %9.4f %9.4f %9.3f %8.2f %8.1f %016llx%s\n",
+                    kind == 0 ? "decode" : "readLasFile", t, best.seconds, best.cpu_seconds,
+                    double(n) / best.seconds / 1e6, results.front().seconds / best.seconds, best.peak_mb,
+                    static_cast<unsigned long long>(best.checksum), same ? "" : "  DIFFERENT");
         std::fflush(stdout);
       }
-      if (kind == 0 && threads.front() == 1) decode1 = double(n) / results.front().seconds;
+      if (kind == 0 && threads.front() == 1) {
+        decode1 = double(n) / results.front().seconds;
+        decode1_cpu = results.front().cpu_seconds;
+      }
     }
     if (!lazperf.empty()) {
       std::printf("laz-perf (node, WASM) on the same file:\n");
-      const double rate = runLazPerf(lazperf, file, repeats);
-      if (rate > 0 && decode1 > 0)
-        std::printf("single-thread decode: ours %.3f Mpts/s, laz-perf %.3f Mpts/s, ratio %.2fx\n",
+      double lp_cpu = 0;
+      const double rate = runLazPerf(lazperf, file, repeats, lp_cpu);
+      if (rate > 0 && decode1 > 0) {
+        std::printf("single-thread decode: ours %.3f Mpts/s, laz-perf %.3f Mpts/s, ratio %.2fx (wall)\n",
                     decode1 / 1e6, rate / 1e6, decode1 / rate);
-      else
+        if (lp_cpu > 0)
+          std::printf("single-thread decode CPU time: ours %.4f s, laz-perf %.4f s, ratio %.2fx\n",
+                      decode1_cpu, lp_cpu, lp_cpu / decode1_cpu);
+      } else
         std::printf("laz-perf did not run (node or %s/node_modules/laz-perf missing?)\n", lazperf.c_str());
     }
     if (generated && keep.empty()) std::remove(file.c_str());
