@@ -1,6 +1,7 @@
 // dw_graph: builds the Delaunay walk graph of a point cloud, saves it, and prints its statistics.
 //
-//   dw_graph input.{pcd,ply,bin} -o out.graph [--builder auto|qhull|incremental] [--threads N] [--quiet]
+//   dw_graph input.{pcd,ply,bin,las,laz} -o out.graph [--builder auto|qhull|incremental] [--threads N]
+//   [--quiet]
 //
 // The graph is built from the cloud's float coordinates exactly as pcl::search::DelaunayWalk reads
 // them, so the file can be given to DelaunayWalk::loadGraph / dw_icp --graph for the same cloud.
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "core/util/file_header_check.h"
+#include "las_cloud.h"
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/core/graph/graph_io.h"
 #include "pcl_delaunay_walk/core/util/point_file.h"
@@ -31,10 +33,17 @@ bool endsWith(const std::string& s, const std::string& e) {
   return s.size() >= e.size() && s.compare(s.size() - e.size(), e.size(), e) == 0;
 }
 
-/// xyz as PCL would hold them (float). PCD through PCL, PLY and KITTI .bin through the core reader.
+/// xyz as PCL would hold them (float). PCD through PCL, PLY and KITTI .bin through the core reader,
+/// LAS and LAZ relative to the tile's origin (las_cloud.h; dw_icp loads them the same way).
 pcl::PointCloud<pcl::PointXYZ> loadCloud(const std::string& path) {
   if (!std::ifstream(path).good()) throw dw::Error("cannot open '" + path + "'");
   if (endsWith(path, ".gz")) throw dw::Error("'" + path + "' is compressed: gunzip it first");
+  if (dw_apps::isLasPath(path)) {
+    Eigen::Vector3d origin;
+    pcl::PointCloud<pcl::PointXYZ> las = dw_apps::loadLasCloud(path, origin);
+    dw_apps::printLasOrigin(origin);
+    return las;
+  }
   pcl::PointCloud<pcl::PointXYZ> cloud;
   if (endsWith(path, ".pcd")) {
     dw::checkPointFileHeader(path);  // PCL 1.13 crashes on some malformed headers (robustness.md)
@@ -50,7 +59,7 @@ pcl::PointCloud<pcl::PointXYZ> loadCloud(const std::string& path) {
 
 void usage() {
   std::fprintf(stderr,
-               "usage: dw_graph input.{pcd,ply,bin} -o out.graph [--builder auto|qhull|incremental]\n"
+               "usage: dw_graph input.{pcd,ply,bin,las,laz} -o out.graph [--builder auto|qhull|incremental]\n"
                "                [--threads N] [--quiet]\n");
 }
 

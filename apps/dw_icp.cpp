@@ -7,7 +7,8 @@
 //          [--threads N] [--graph target.graph] [--save-graph out.graph] [--reciprocal] [--compare]
 //
 // --rotate/--translate move the source first (degrees, roll-pitch-yaw), e.g. to match a model to
-// itself as in the seed's protocol. Timings are wall-clock, single run.
+// itself as in the seed's protocol. Clouds: .pcd, .ply, KITTI .bin, .las, .laz (two LAS/LAZ tiles
+// run in the target's origin frame, printed as "LAS origin"). Timings are wall-clock, single run.
 // PCL's SVD transformation estimation, instantiated here, trips GCC 12 false positives inside Eigen.
 #pragma GCC diagnostic ignored "-Warray-bounds"
 #pragma GCC diagnostic ignored "-Wuse-after-free"
@@ -30,6 +31,7 @@
 #include <vector>
 
 #include "core/util/file_header_check.h"
+#include "las_cloud.h"
 #include "pcl_delaunay_walk/core/util/point_file.h"
 #include "pcl_delaunay_walk/registration/icp_delaunay_walk.h"
 
@@ -307,11 +309,28 @@ void moveSource(Cloud::Ptr& source, const Options& o) {
   source = moved;
 }
 
+/// Two LAS/LAZ tiles: both in the target's frame (las_cloud.h), so georeferenced tiles keep their
+/// resolution; the transform is then the one of that frame. A LAS tile beside a PLY/PCD cloud is
+/// loaded in world coordinates, the other cloud's frame.
+void loadPair(const std::vector<std::string>& files, Cloud::Ptr& source, Cloud::Ptr& target) {
+  const bool las_s = dw_apps::isLasPath(files[0]), las_t = dw_apps::isLasPath(files[1]);
+  if (las_s && las_t) {
+    Eigen::Vector3d os, ot;
+    target.reset(new Cloud(dw_apps::loadLasCloud(files[1], ot)));
+    source.reset(new Cloud(dw_apps::loadLasCloud(files[0], os)));
+    dw_apps::reframe(*source, os, ot);
+    dw_apps::printLasOrigin(ot);
+    return;
+  }
+  Eigen::Vector3d world;
+  source = las_s ? Cloud::Ptr(new Cloud(dw_apps::loadLasCloud(files[0], world, false))) : loadCloud(files[0]);
+  target = las_t ? Cloud::Ptr(new Cloud(dw_apps::loadLasCloud(files[1], world, false))) : loadCloud(files[1]);
+}
+
 /// Reads both clouds, applies --voxel and the source motion, and prints their sizes.
 void readInputs(const std::vector<std::string>& files, const Options& o, Cloud::Ptr& source,
                 Cloud::Ptr& target) {
-  source = loadCloud(files[0]);
-  target = loadCloud(files[1]);
+  loadPair(files, source, target);
   if (o.voxel > 0.f) voxelFilter(source, target, o);
   if (o.rotate[0] != 0 || o.rotate[1] != 0 || o.rotate[2] != 0 || o.translate[0] != 0 ||
       o.translate[1] != 0 || o.translate[2] != 0)

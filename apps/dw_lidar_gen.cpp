@@ -20,34 +20,73 @@ void usage() {
   std::fprintf(
       stderr,
       "usage: dw_lidar_gen -n POINTS -o out.las|out.laz [--laz] [--format F] [--density PULSES_PER_M2]\n"
-      "                    [--swath M] [--seed S]\n"
+      "                    [--swath M] [--seed S] [--chunk N] [--variable-chunks]\n"
       "  Writes a synthetic airborne LiDAR tile (LAS 1.2 format 1; LAS 1.4 format 6 beyond 2^32).\n"
       "  .laz or --laz: LASzip-compressed. --format F: point format 0-3 or 6-8 instead.\n"
-      "  POINTS accepts suffixes k and M (e.g. 21M).\n");
+      "  --chunk N: LAZ points per chunk (default 50000). --variable-chunks: LAZ chunks of varying\n"
+      "  sizes, N/4 to N points each (LASzip's variable chunking: the chunk table holds the counts).\n"
+      "  POINTS and N accept suffixes k and M (e.g. 21M).\n");
 }
 
 bool endsWith(const std::string& s, const std::string& tail) {
   return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
 }
 
-/// Writes the tile with `Writer` (LasWriter or LazWriter); returns the number of records.
-template <typename Writer>
-std::uint64_t writeTile(const std::string& path, const dw::las::LidarGenOptions& o, int format,
-                        const std::function<void(double)>& progress) {
+/// LAZ chunking of the output.
+struct LazLayout {
+  std::uint32_t chunk = 50000;
+  bool variable = false;
+};
+
+dw::las::LasHeader tileHeader(const dw::las::LidarGenOptions& o, int format) {
   dw::las::LasHeader h = dw::las::syntheticHeader(o);
   if (format >= 0) {
     h.point_format = std::uint8_t(format);
     h.version_minor = format >= 6 ? 4 : std::min<std::uint8_t>(h.version_minor, 2);
   }
-  Writer writer(path, h);
+  return h;
+}
+
+/// Writes every generated record with `writer`, calling `after(n)` after the n-th; returns the count.
+template <typename Writer, typename After>
+std::uint64_t writeRecords(Writer& writer, const dw::las::LidarGenOptions& o,
+                           const std::function<void(double)>& progress, After&& after) {
   std::uint64_t n = 0;
   const std::uint64_t step = std::max<std::uint64_t>(1, o.num_points / 100);
   dw::las::generateLidar(o, [&](const dw::las::LasRecord& r) {
     writer.write(r);
-    if (++n % step == 0) progress(double(n) / double(o.num_points));
+    after(++n);
+    if (n % step == 0) progress(double(n) / double(o.num_points));
   });
   writer.close();
   return n;
+}
+
+std::uint64_t writeLasTile(const std::string& path, const dw::las::LidarGenOptions& o, int format,
+                           const std::function<void(double)>& progress) {
+  dw::las::LasWriter writer(path, tileHeader(o, format));
+  return writeRecords(writer, o, progress, [](std::uint64_t) {});
+}
+
+/// Variable chunks end at sizes drawn from [chunk/4, chunk] by a generator seeded with the tile's
+/// seed, so a file is reproducible and its chunks are of many sizes.
+std::uint64_t writeLazTile(const std::string& path, const dw::las::LidarGenOptions& o, int format,
+                           const LazLayout& layout, const std::function<void(double)>& progress) {
+  dw::las::LazWriter writer(path, tileHeader(o, format), 0, layout.chunk,
+                            layout.variable ? dw::las::LazChunking::kVariable : dw::las::LazChunking::kFixed);
+  std::uint64_t state = o.seed * 0x9E3779B97F4A7C15ull + 1, next_end = 0;
+  auto draw = [&] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    const std::uint64_t lo = std::max<std::uint64_t>(1, layout.chunk / 4);
+    return lo + (state >> 33) % (layout.chunk - lo + 1);
+  };
+  if (layout.variable) next_end = draw();
+  return writeRecords(writer, o, progress, [&](std::uint64_t n) {
+    if (layout.variable && n == next_end) {
+      writer.endChunk();
+      next_end = n + draw();
+    }
+  });
 }
 
 }  // namespace
@@ -57,6 +96,7 @@ int main(int argc, char** argv) {
   std::string out;
   bool laz = false;
   int format = -1;
+  LazLayout layout;
   try {
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
@@ -74,7 +114,13 @@ int main(int argc, char** argv) {
         format = std::atoi(value());
         if (!((format >= 0 && format <= 3) || (format >= 6 && format <= 8)))
           throw dw::Error("--format must be 0-3 or 6-8");
-      } else if (a == "--density")
+      } else if (a == "--chunk") {
+        const std::uint64_t c = dw_apps::parseCount(value(), "chunk size");
+        if (c < 1 || c > (1u << 24)) throw dw::Error("--chunk must be 1 to 16M points");
+        layout.chunk = std::uint32_t(c);
+      } else if (a == "--variable-chunks")
+        layout.variable = true;
+      else if (a == "--density")
         o.density = std::atof(value());
       else if (a == "--swath")
         o.swath = std::atof(value());
@@ -98,9 +144,9 @@ int main(int argc, char** argv) {
       }
     };
     laz = laz || endsWith(out, ".laz") || endsWith(out, ".LAZ");
-    const std::uint64_t n = laz ? writeTile<dw::las::LazWriter>(out, o, format, progress)
+    const std::uint64_t n = laz ? writeLazTile(out, o, format, layout, progress)
                                 : (format < 0 ? dw::las::writeSyntheticLas(out, o, progress)
-                                              : writeTile<dw::las::LasWriter>(out, o, format, progress));
+                                              : writeLasTile(out, o, format, progress));
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::fprintf(stderr, "\rwrote %llu points to %s in %.1f s\n", static_cast<unsigned long long>(n),
                  out.c_str(), s);

@@ -142,7 +142,7 @@ inline void loadBlob(const std::string& path, pcl::PCLPointCloud2& blob, pcl::Po
       rc = pcl::io::loadPLYFile(path, blob);
     }
   } else {
-    throw dw::Error("dw_viewer: " + path + ": unknown file type (expected .pcd, .ply or .las)");
+    throw dw::Error("dw_viewer: " + path + ": unknown file type (expected .pcd, .ply, .las or .laz)");
   }
   if (rc < 0) throw dw::Error("dw_viewer: cannot read " + path + " (missing, unreadable or malformed)");
 }

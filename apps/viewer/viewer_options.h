@@ -73,7 +73,7 @@ inline const char* usageText() {
          "       dw_viewer --tin MESH_OR_CLOUD [options] a TIN (PLY from dw_tin, or a cloud to triangulate)\n"
          "       dw_viewer --map MAP --scan SCAN --poses EST.txt [--truth TRUE.txt] [--frame K] [options]\n"
          "                                               a localization or odometry run at frame K\n"
-         "clouds: .pcd, .ply (x, y, z of any numeric type) or .las (uncompressed LAS 1.0-1.4); maps and\n"
+         "clouds: .pcd, .ply (x, y, z of any numeric type) or .las/.laz (LAS 1.0-1.4, LAZ); maps and\n"
          "        scans also KITTI .bin. Poses: KITTI 3x4 rows, map <- sensor\n"
          "  --las-class C             LAS inputs: keep only class C (2 = ground)\n"
          "ICP:\n"

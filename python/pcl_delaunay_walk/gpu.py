@@ -1,26 +1,76 @@
-"""The GPU module's entry points. The CUDA module (gpu/ in the C++ tree) is not bound by this package
-yet, so every call raises RuntimeError with the reason; `available()` says so without raising."""
+"""The GPU module (gpu/ in the C++ tree: dw::gpu::DelaunayWalk and dw::gpu::IterativeClosestPoint).
+
+    import pcl_delaunay_walk as dw
+    if dw.gpu.available():
+        walk = dw.gpu.DelaunayWalk(dw.DelaunayGraph(target))   # the graph on the device
+        idx, d2, ends = walk.nearest(queries)                   # exact, as NeighbourSearch.nearest
+        result = dw.gpu.icp(source, walk, max_distance=0.05)   # point-to-point ICP on the device
+    else:
+        print(dw.gpu.why_unavailable())
+
+Where the build has no CUDA module, its library cannot be loaded, or no CUDA device is present, every
+call raises RuntimeError with the reason; `available()` and `why_unavailable()` say so without raising.
+"""
 
 from ._native import HAVE_GPU
 
-_REASON = (
-    "pcl_delaunay_walk.gpu: the CUDA module is not available in this build "
-    "(the Python package binds the CPU library only; use NeighbourSearch and icp)"
-)
+try:
+    from . import _gpu
+    _IMPORT_ERROR = ""
+except ImportError as e:  # no CUDA module in this build, or its CUDA runtime library is missing
+    _gpu = None
+    _IMPORT_ERROR = str(e)
+
+
+def why_unavailable() -> str:
+    """'' when GPU calls can run here, else why not."""
+    if not HAVE_GPU:
+        return ("pcl_delaunay_walk.gpu: this build has no CUDA module (configure with CUDA to build it; "
+                "NeighbourSearch and icp run on the CPU)")
+    if _gpu is None:
+        return "pcl_delaunay_walk.gpu: the CUDA module cannot be loaded: " + _IMPORT_ERROR
+    why = _gpu.why_unavailable()
+    return "pcl_delaunay_walk.gpu: " + why if why else ""
 
 
 def available() -> bool:
-    """Whether GPU calls can run here."""
-    return bool(HAVE_GPU)
+    """Whether GPU calls can run here (a CUDA module in this build and a CUDA device)."""
+    return why_unavailable() == ""
+
+
+def _require():
+    why = why_unavailable()
+    if why:
+        raise RuntimeError(why)
 
 
 class DelaunayWalk:
-    """GPU Delaunay walk (not available in this build: constructing one raises RuntimeError)."""
+    """A DelaunayGraph uploaded to the current CUDA device, for exact batch nearest-neighbour search.
 
-    def __init__(self, *args, **kwargs):
-        raise RuntimeError(_REASON)
+    Raises RuntimeError where no CUDA device (or no CUDA module) is available."""
+
+    def __init__(self, graph):
+        _require()
+        self._impl = _gpu.DelaunayWalk(graph)
+        self.graph = graph
+
+    @property
+    def num_vertices(self) -> int:
+        return self._impl.num_vertices
+
+    def nearest(self, queries, hints=None):
+        """(indices int64, sq_dists float32, ends int64), as NeighbourSearch.nearest."""
+        return self._impl.nearest(queries, hints)
 
 
-def icp(*args, **kwargs):
-    """GPU ICP (not available in this build: raises RuntimeError)."""
-    raise RuntimeError(_REASON)
+def icp(source, target, init=None, max_iterations=50, max_distance=float("inf"), transformation_epsilon=0.0,
+        fitness_epsilon=float("-inf")):
+    """Point-to-point ICP of `source` onto `target` (a gpu.DelaunayWalk, or points to build one from)
+    on the GPU with PCL's convergence rules: {'transform' 4x4, 'iterations', 'converged', 'state', 'mse',
+    'correspondences'}. Raises RuntimeError where no CUDA device is available."""
+    _require()
+    if not isinstance(target, DelaunayWalk):
+        from ._native import DelaunayGraph
+        target = DelaunayWalk(DelaunayGraph(target))
+    return _gpu.icp(source, target._impl, init, max_iterations, max_distance, transformation_epsilon,
+                    fitness_epsilon)

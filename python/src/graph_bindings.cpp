@@ -83,8 +83,9 @@ vertex). Vertices are stored in a local float frame relative to `origin`.)doc");
         return std::make_shared<dw::DelaunayGraph>(dw::loadGraph(path));
       },
       py::arg("path"),
-      "Read a graph file: a bounds-checked copy, checksum verified and structure validated; a corrupt, "
-      "truncated or foreign file raises GraphFileError.");
+      "Read a graph file: parsed from a read-only memory map of the file and copied once into the graph's "
+      "arrays, checksum verified and structure validated; a corrupt, truncated or foreign file raises "
+      "GraphFileError.");
   c.def("validate", &dw::DelaunayGraph::validate, py::call_guard<py::gil_scoped_release>(),
         "Check every invariant; raises Error naming the first broken one.");
   c.def_property_readonly("num_vertices", &dw::DelaunayGraph::numVertices, "Distinct finite points.");

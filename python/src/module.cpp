@@ -25,5 +25,11 @@ PYBIND11_MODULE(_native, m) {
 #else
   m.attr("HAVE_ICP") = false;
 #endif
-  m.attr("HAVE_GPU") = false;  // the CUDA module (gpu/) is not bound: pcl_delaunay_walk.gpu raises
+  // Whether the CUDA module (_gpu, a separate extension) was built; pcl_delaunay_walk.gpu checks the
+  // device itself.
+#ifdef DW_PY_WITH_GPU
+  m.attr("HAVE_GPU") = true;
+#else
+  m.attr("HAVE_GPU") = false;
+#endif
 }

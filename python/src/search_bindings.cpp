@@ -14,6 +14,7 @@
 #include "arrays.h"
 #include "bindings.h"
 #include "pcl_delaunay_walk/core/search/neighbour_search.h"
+#include "pcl_delaunay_walk/core/search/query_order.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
 
 namespace dw_py {
@@ -32,6 +33,8 @@ struct Batch {
   const std::int64_t* hints;  ///< null: none
   dw::StartStrategy strategy;
   unsigned workers;
+  /// Run hinted queries grouped by start vertex; false where results are appended in query order.
+  bool group_by_start = true;
 };
 
 dw::StartStrategy strategyArg(const py::object& name, bool have_hints) {
@@ -40,16 +43,28 @@ dw::StartStrategy strategyArg(const py::object& name, bool have_hints) {
 }
 
 /// Calls per_query(i, local_query, hint) for every finite query and skip(i) for the others, on the
-/// batch's workers; T is the queries' dtype.
+/// batch's workers; T is the queries' dtype. With hints the queries run grouped by start vertex
+/// (dw::orderByStartVertex, as the C++ ICP estimator runs them): the graph is stored along a
+/// space-filling curve, so consecutive walks then read neighbouring records instead of a cache miss
+/// each, whatever order the caller's points are in. Answers are written by position, so the order
+/// changes no result; each worker's block is a contiguous range of that order.
 template <typename T, typename PerQuery, typename Skip>
 void forEachQuery(const Batch& b, PerQuery&& per_query, Skip&& skip) {
   const dw::DelaunayGraph& g = b.search.graph();
   const Points& q = b.queries;
+  std::vector<index_t> order;
+  const bool grouped = b.hints && b.group_by_start;
+  if (grouped) {
+    std::vector<index_t> start(q.n);
+    for (std::size_t i = 0; i < q.n; ++i) start[i] = hintVertex(b.hints[i]);
+    order = dw::orderByStartVertex(start.data(), q.n, g.numVertices());
+  }
   dw::parallelFor(q.n, b.workers, [&](std::size_t begin, std::size_t end, unsigned w) {
-    for (std::size_t i = begin; i < end; ++i) {
+    for (std::size_t k = begin; k < end; ++k) {
+      const std::size_t i = grouped ? order[k] : k;
       // ICP-like sequences start at their hint, a cache miss on most queries: fetch it early.
-      if (b.hints && i + kPrefetchAhead < end)
-        b.search.prefetchStart(hintVertex(b.hints[i + kPrefetchAhead]));
+      if (b.hints && k + kPrefetchAhead < end)
+        b.search.prefetchStart(hintVertex(b.hints[grouped ? order[k + kPrefetchAhead] : k + kPrefetchAhead]));
       const double x = q.at<T>(i, 0), y = q.at<T>(i, 1), z = q.at<T>(i, 2);
       if (g.numVertices() == 0 || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
         skip(i);
@@ -148,8 +163,12 @@ py::tuple radius(const dw::NeighbourSearch& s, py::handle queries, double r, std
   const Points q = pointsArg(queries, "queries");
   const bool have_hints = !hints_obj.is_none();
   const py::array_t<std::int64_t> hints = have_hints ? hintsArg(hints_obj, q.n) : py::array_t<std::int64_t>();
-  const Batch b{s, q, have_hints ? hints.data() : nullptr, strategyArg(strategy, have_hints),
-                dw::workerCount(q.n, threads, kMinBlock)};
+  const Batch b{s,
+                q,
+                have_hints ? hints.data() : nullptr,
+                strategyArg(strategy, have_hints),
+                dw::workerCount(q.n, threads, kMinBlock),
+                /*group_by_start=*/false};
   const auto radius2 = static_cast<float>(r * r);
   py::array_t<std::int64_t> offsets(static_cast<py::ssize_t>(q.n + 1));
   std::int64_t* const off = offsets.mutable_data();

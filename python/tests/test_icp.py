@@ -84,10 +84,3 @@ def test_icp_bad_arguments(bunny_pair):
     with pytest.raises(ValueError):
         dw.icp(s[:, :2], t)
 
-
-def test_gpu_raises_clearly():
-    assert not dw.gpu.available()
-    with pytest.raises(RuntimeError, match="CUDA"):
-        dw.gpu.DelaunayWalk(np.eye(3))
-    with pytest.raises(RuntimeError, match="CUDA"):
-        dw.gpu.icp(np.eye(3), np.eye(3))

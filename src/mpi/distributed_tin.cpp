@@ -72,6 +72,18 @@ StripPoints usedPoints(const StripPoints& pool, const std::vector<index_t>& tria
   return out;
 }
 
+/// Where rank r's share of the records starts (r = P: the end). Equal shares, moved to the nearest
+/// LAZ chunk boundary so that each chunk is decoded by one rank; where that would leave some rank
+/// without records (chunks larger than a share), the equal shares themselves. Every rank computes
+/// the same boundaries from the headers alone.
+std::uint64_t rankBoundary(const LasInputSet& input, int r, int P) {
+  const std::uint64_t n = input.size();
+  auto equal = [&](int k) { return n * std::uint64_t(k) / std::uint64_t(P); };
+  for (int k = 0; k < P; ++k)
+    if (input.alignToChunk(equal(k)) >= input.alignToChunk(equal(k + 1))) return equal(r);
+  return input.alignToChunk(equal(r));
+}
+
 /// This rank's contiguous share of the kept records (of one file or of a pre-split set), numbered by
 /// global index; sets t's frame and total_points.
 std::vector<PointRecord> readRecords(MPI_Comm comm, const DistributedTinOptions& options, RankTin& t) {
@@ -79,8 +91,7 @@ std::vector<PointRecord> readRecords(MPI_Comm comm, const DistributedTinOptions&
   const LasInputSet input(options.inputs, options.max_records);
   const std::string name =
       input.paths().size() == 1 ? input.paths()[0] : std::to_string(input.paths().size()) + " input files";
-  const std::uint64_t n_rec = input.size();
-  const std::uint64_t first = n_rec * me / P, last = n_rec * (me + 1) / P;
+  const std::uint64_t first = rankBoundary(input, me, P), last = rankBoundary(input, me + 1, P);
   t.frame = input.frame();
   std::vector<PointRecord> mine;
   mine.reserve(last - first);

@@ -38,6 +38,7 @@ LasInputSet::LasInputSet(std::vector<std::string> paths, std::uint64_t max_recor
     fi.count = h.point_count;
     if (max_records) fi.count = std::min(fi.count, max_records - std::min(max_records, at));
     for (int k = 0; k < 3; ++k) fi.scale[k] = h.scale[k], fi.offset[k] = h.offset[k];
+    fi.chunk_starts = reader.chunkStarts();
     at += fi.count;
   }
   total_ = at;
@@ -51,6 +52,20 @@ LasInputSet::LasInputSet(std::vector<std::string> paths, std::uint64_t max_recor
     frame_.scale[k] = integer_frame_ ? f0.scale[k] : 1.0;
     frame_.offset[k] = f0.offset[k];
   }
+}
+
+std::uint64_t LasInputSet::alignToChunk(std::uint64_t index) const {
+  if (index >= total_) return total_;
+  // The file holding `index` (a file of zero records used holds nothing).
+  std::size_t f = 0;
+  while (f + 1 < files_.size() && files_[f].first + files_[f].count <= index) ++f;
+  const FileInfo& fi = files_[f];
+  if (fi.chunk_starts.empty()) return index;
+  const std::uint64_t local = index - fi.first;
+  const auto next = std::upper_bound(fi.chunk_starts.begin(), fi.chunk_starts.end(), local);
+  const std::uint64_t lo = *(next - 1);  // chunk_starts[0] == 0 <= local
+  const std::uint64_t hi = next == fi.chunk_starts.end() ? fi.count : std::min(*next, fi.count);
+  return fi.first + (local - lo <= hi - local ? lo : hi);
 }
 
 }  // namespace mpi

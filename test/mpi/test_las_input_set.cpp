@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "pcl_delaunay_walk/core/las/las_writer.h"
+#include "pcl_delaunay_walk/core/las/laz_writer.h"
 #include "pcl_delaunay_walk/mpi/las_input_set.h"
 
 namespace {
@@ -118,6 +119,45 @@ TEST(LasInputSet, SplitFilesReadLikeTheWholeFile) {
   const LasInputSet cut({a, b, c}, 701);
   EXPECT_EQ(cut.size(), 701u);
   EXPECT_EQ(collect(cut, 0, 5000), std::vector<Pt>(all.begin(), all.begin() + 701));
+}
+
+/// A LAZ file's chunk starts are the boundaries a range snaps to (the nearer one; a LAS file in the
+/// same set keeps every record a boundary), and ranges cut there read the LAS twin's records.
+TEST(LasInputSet, LazRangesSnapToChunkStarts) {
+  const std::string las = makeSource(3500);
+  const std::string laz = testDir() + "/source.laz", tail = testDir() + "/tail.las";
+  {
+    LasReader in(las);
+    dw::las::LazWriter w(laz, in.header(), 0, 1000);
+    std::vector<LasRecord> buf;
+    while (in.read(buf) > 0)
+      for (const LasRecord& r : buf) w.write(r);
+    w.close();
+  }
+  writePart(las, tail, 0, 500);
+  const LasInputSet set({laz, tail});
+  ASSERT_EQ(set.size(), 4000u);
+  const std::vector<std::pair<std::uint64_t, std::uint64_t>> expect = {
+      {0, 0},       {400, 0},     {500, 0},     {501, 1000}, {1999, 2000},
+      {3400, 3500}, {3600, 3600}, {3999, 3999}, {4000, 4000}};
+  for (const auto& [at, want] : expect) EXPECT_EQ(set.alignToChunk(at), want) << at;
+  std::uint64_t prev = 0;
+  for (std::uint64_t i = 0; i <= set.size(); i += 7) {
+    EXPECT_GE(set.alignToChunk(i), prev) << i;
+    prev = set.alignToChunk(i);
+  }
+  // max_records cuts the LAZ file inside its third chunk: the cut is the file's end.
+  const LasInputSet cut({laz}, 2500);
+  EXPECT_EQ(cut.alignToChunk(2300), 2500u);
+  EXPECT_EQ(cut.alignToChunk(2200), 2000u);
+
+  const LasInputSet twin({las, tail});
+  for (int P : {2, 3}) {
+    for (int r = 0; r < P; ++r) {
+      const std::uint64_t a = set.alignToChunk(4000u * r / P), b = set.alignToChunk(4000u * (r + 1) / P);
+      EXPECT_EQ(collect(set, a, b), collect(twin, a, b)) << P << " " << r;
+    }
+  }
 }
 
 TEST(LasInputSet, DifferentOffsetsShareOneScaledFrame) {

@@ -1,6 +1,6 @@
 /// \file las_io.h
-/// \brief Loading uncompressed LAS 1.0-1.4 (point formats 0-10) into a pcl::PointCloud, with an optional
-/// class filter. Georeferenced coordinates do not fit float: the cloud is stored relative to an origin
+/// \brief Loading LAS 1.0-1.4 (point formats 0-10) and LAZ (LASzip-compressed, formats 0-3 and 6-8)
+/// into a pcl::PointCloud, with an optional class filter. Georeferenced coordinates do not fit float: the cloud is stored relative to an origin
 /// (a point of the LAS integer grid near the data's centre) that is returned in double.
 #pragma once
 
@@ -23,11 +23,12 @@ struct LASLoadOptions {
 /** \brief Load a LAS file into a point cloud.
  * Fields filled when PointT has them: x, y, z; intensity (raw 16-bit value); rgb (LAS 16-bit colour
  * scaled to 8 bits); label (classification).
- * \param[in] file_name the .las file (a .laz file is refused with a message to decompress it)
+ * \param[in] file_name the .las or .laz file
  * \param[out] cloud the points; world = point + origin
  * \param[out] origin the double-precision origin subtracted from every point (may be nullptr)
  * \param[in] options class filter and centring
- * \return 0 on success; a corrupt, truncated or compressed file throws dw::las::LasError */
+ * \return 0 on success; a corrupt or truncated file throws dw::las::LasError naming it (and, for
+ * LAZ, the chunk) */
 template <typename PointT>
 int loadLASFile(const std::string& file_name, pcl::PointCloud<PointT>& cloud,
                 Eigen::Vector3d* origin = nullptr, const LASLoadOptions& options = LASLoadOptions());

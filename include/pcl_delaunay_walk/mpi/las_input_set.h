@@ -42,13 +42,20 @@ class LasInputSet {
   /// the distributed run and any single-process reference see identical numbers.
   const Frame& frame() const { return frame_; }
 
+  /// The boundary nearest to sequence position `index` (<= size()) at which a range should start or
+  /// end: `index` itself inside a LAS file, the nearer start of a chunk (or end of the file) inside a
+  /// LAZ file, so that no chunk is decoded by two ranks. Non-decreasing in `index`; 0 and size() map
+  /// to themselves, so boundaries of consecutive ranges still partition the sequence.
+  std::uint64_t alignToChunk(std::uint64_t index) const;
+
   /// Calls fn(record, frame_x, frame_y, world_z) for every record of [first, last) in sequence order.
   template <class Fn>
   void forEach(std::uint64_t first, std::uint64_t last, Fn&& fn) const;
 
  private:
   struct FileInfo {
-    std::uint64_t first = 0, count = 0;  // position in the sequence, records used
+    std::uint64_t first = 0, count = 0;       // position in the sequence, records used
+    std::vector<std::uint64_t> chunk_starts;  // LAZ: first record of each chunk in the file; LAS: empty
     double scale[3] = {1, 1, 1}, offset[3] = {0, 0, 0};
   };
   std::vector<std::string> paths_;

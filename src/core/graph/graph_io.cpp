@@ -1,7 +1,11 @@
 #include "pcl_delaunay_walk/core/graph/graph_io.h"
 
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <cstring>
-#include <filesystem>
 #include <fstream>
 #include <limits>
 
@@ -168,20 +172,54 @@ DelaunayGraph deserializeGraph(const std::uint8_t* data, std::size_t size) {
   return g;
 }
 
+namespace {
+
+/// A read-only private mapping of a whole file, unmapped on destruction. The loader parses the
+/// mapping in place: the file's bytes are copied once, into the graph's arrays, instead of first into
+/// a buffer as large as the file (measured 1.6x faster on a 1M-point graph, docs/python.md).
+class MappedFile {
+ public:
+  explicit MappedFile(const std::string& path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) throw GraphFileError("pcl_delaunay_walk: cannot open graph file '" + path + "'");
+    struct stat st {};
+    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+      ::close(fd);
+      throw GraphFileError("pcl_delaunay_walk: cannot open graph file '" + path + "': not a regular file");
+    }
+    size_ = static_cast<std::size_t>(st.st_size);
+    if (size_ > 0) {
+      void* p = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
+      if (p == MAP_FAILED) {
+        ::close(fd);
+        throw GraphFileError("pcl_delaunay_walk: cannot map graph file '" + path + "'");
+      }
+      ::madvise(p, size_, MADV_SEQUENTIAL);  // read once, front to back (checksum, then the arrays)
+      data_ = static_cast<const std::uint8_t*>(p);
+    }
+    ::close(fd);  // the mapping keeps the file's pages
+  }
+  ~MappedFile() {
+    if (data_) ::munmap(const_cast<std::uint8_t*>(data_), size_);
+  }
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+  const std::uint8_t* data() const { return data_; }
+  std::size_t size() const { return size_; }
+
+ private:
+  const std::uint8_t* data_ = nullptr;
+  std::size_t size_ = 0;
+};
+
+}  // namespace
+
 DelaunayGraph loadGraph(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec))
-    throw GraphFileError("pcl_delaunay_walk: cannot open graph file '" + path + "': not a regular file");
-  std::ifstream f(path, std::ios::binary | std::ios::ate);
-  if (!f) throw GraphFileError("pcl_delaunay_walk: cannot open graph file '" + path + "'");
-  const std::streamoff size = f.tellg();
-  if (size < 0) throw GraphFileError("pcl_delaunay_walk: cannot read graph file '" + path + "'");
-  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(size));
-  f.seekg(0);
-  f.read(reinterpret_cast<char*>(bytes.data()), size);
-  if (!f) throw GraphFileError("pcl_delaunay_walk: cannot read graph file '" + path + "'");
+  const MappedFile file(path);
+  // A file of 0 bytes maps to nothing; the parser reports it as shorter than its header.
+  static const std::uint8_t kNothing = 0;
   try {
-    return deserializeGraph(bytes.data(), bytes.size());
+    return deserializeGraph(file.data() ? file.data() : &kNothing, file.size());
   } catch (const GraphFileError& e) {
     throw GraphFileError(std::string(e.what()) + " ('" + path + "')");
   }

@@ -153,6 +153,14 @@ void LasReader::seek(std::uint64_t index) {
   next_ = index;
 }
 
+std::vector<std::uint64_t> LasReader::chunkStarts() const {
+  std::vector<std::uint64_t> starts;
+  if (!laz_) return starts;
+  starts.reserve(laz_->size());
+  for (std::size_t c = 0; c < laz_->size(); ++c) starts.push_back(laz_->firstPoint(c));
+  return starts;
+}
+
 std::size_t LasReader::read(std::vector<LasRecord>& out, std::size_t max_records) {
   const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(max_records, remaining()));
   out.resize(n);
@@ -205,18 +213,38 @@ inline void appendRecord(const LasRecord& r, const LasReadOptions& options, LasC
   }
 }
 
-/// Appends the records of one decoded chunk that pass the class filter.
-void appendRecords(const unsigned char* records, std::size_t count, const LasHeader& h,
-                   const LasReadOptions& options, LasCloud& cloud) {
-  LasRecord r;
-  for (std::size_t i = 0; i < count; ++i) {
-    decodeRecord(records + i * h.record_length, h.point_format, r);
-    appendRecord(r, options, cloud);
+/// The kept records of one decoded chunk as structure-of-arrays (only the arrays the cloud fills).
+struct ChunkCloud {
+  std::vector<std::int32_t> X, Y, Z;
+  std::vector<std::uint8_t> classification, return_number;
+  std::vector<std::uint16_t> intensity;
+  void convert(const unsigned char* records, std::size_t count, const LasHeader& h,
+               const LasReadOptions& options) {
+    X.clear(), Y.clear(), Z.clear(), classification.clear(), return_number.clear(), intensity.clear();
+    LasRecord r;
+    for (std::size_t i = 0; i < count; ++i) {
+      decodeRecord(records + i * h.record_length, h.point_format, r);
+      if (options.classification >= 0 && r.classification != options.classification) continue;
+      X.push_back(r.X);
+      Y.push_back(r.Y);
+      Z.push_back(r.Z);
+      if (options.keep_attributes) {
+        classification.push_back(r.classification);
+        intensity.push_back(r.intensity);
+        return_number.push_back(r.return_number);
+      }
+    }
   }
+};
+
+template <typename T>
+void append(std::vector<T>& to, const std::vector<T>& from) {
+  to.insert(to.end(), from.begin(), from.end());
 }
 
-/// LAZ: batches of a few chunks per thread are decoded in parallel, then appended in file order, so
-/// the cloud is the same for any thread count and memory holds one batch of records.
+/// LAZ: batches of a few chunks per thread are decoded and converted to arrays in parallel, then
+/// appended in file order (a copy), so the cloud is the same for any thread count and memory beyond
+/// the cloud holds one batch: a few chunks' records per thread.
 LasCloud readLazFile(const std::string& path, const LasReadOptions& options) {
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) throw LasError(path + ": cannot open for reading");
@@ -239,10 +267,13 @@ LasCloud readLazFile(const std::string& path, const LasReadOptions& options) {
     cloud.Z.reserve(h.point_count);
   }
   const unsigned threads = resolveThreads(options.threads);
-  const std::size_t batch = std::size_t(threads) * 2;
+  // Four chunks per thread keep every thread busy across uneven chunks while a batch's last ones
+  // finish; that many chunks' records are the memory the decoding needs beyond the cloud.
+  const std::size_t batch = std::size_t(threads) * 4;
   struct Slot {
     std::unique_ptr<laz::ChunkDecoder> decoder;
     std::vector<std::uint8_t> compressed, records;
+    ChunkCloud kept;
   };
   std::vector<Slot> slots(std::min(batch, chunks.size()));
   for (auto& s : slots) s.decoder = chunks.makeDecoder();
@@ -251,9 +282,17 @@ LasCloud readLazFile(const std::string& path, const LasReadOptions& options) {
     parallelForDynamic(n, threads, [&](std::size_t i) {
       Slot& s = slots[i];
       chunks.decode(begin + i, *s.decoder, s.compressed, s.records);
+      s.kept.convert(s.records.data(), chunks.points(begin + i), h, options);
     });
-    for (std::size_t i = 0; i < n; ++i)
-      appendRecords(slots[i].records.data(), chunks.points(begin + i), h, options, cloud);
+    for (std::size_t i = 0; i < n; ++i) {
+      const ChunkCloud& k = slots[i].kept;
+      append(cloud.X, k.X);
+      append(cloud.Y, k.Y);
+      append(cloud.Z, k.Z);
+      append(cloud.classification, k.classification);
+      append(cloud.intensity, k.intensity);
+      append(cloud.return_number, k.return_number);
+    }
     if (options.progress) options.progress(double(begin + n) / double(chunks.size()), options.progress_user);
   }
   return cloud;

@@ -33,17 +33,23 @@ void asLasError(F&& f) {
 }  // namespace
 
 LazWriter::LazWriter(const std::string& path, const LasHeader& header, unsigned extra_bytes,
-                     std::uint32_t chunk_size)
+                     std::uint32_t chunk_size, LazChunking chunking)
     : path_(path),
       uncaught_at_start_(std::uncaught_exceptions()),
       h_(header),
       extra_(extra_bytes),
-      chunk_size_(std::max<std::uint32_t>(1, chunk_size)) {
+      chunk_size_(std::max<std::uint32_t>(1, chunk_size)),
+      chunking_(chunking) {
   if (h_.version_major != 1 || h_.version_minor > 4) throw LasError(path + ": can only write LAS 1.0-1.4");
   if (h_.point_format >= 6 && h_.version_minor < 4) throw LasError(path + ": formats 6-10 need LAS 1.4");
+  // The readers accept chunks of at most 2^24 points (a bound on what a lying table can allocate).
+  if (chunk_size_ > (1u << 24) ||
+      (chunking_ == LazChunking::kFixed && chunk_size_ == laz::kVariableChunkSize))
+    throw LasError(path + ": chunk size " + std::to_string(chunk_size) + " is out of range (1 to 16777216)");
   laz::LaszipVlr v;
   try {
-    v = laz::defaultLaszipVlr(h_.point_format, extra_, chunk_size_);
+    v = laz::defaultLaszipVlr(h_.point_format, extra_,
+                              chunking_ == LazChunking::kVariable ? laz::kVariableChunkSize : chunk_size_);
   } catch (const std::runtime_error& e) {
     throw LasError(path + ": " + e.what());
   }
@@ -80,11 +86,20 @@ void LazWriter::put(const void* p, std::size_t n) {
 }
 
 void LazWriter::write(const LasRecord& r) {
+  if (!file_) throw LasError(path_ + ": write() after close()");
   std::uint8_t* rec = records_.data() + buffered_ * h_.record_length;
   encodeRecord(r, h_.point_format, rec);
   std::memset(rec + baseRecordSize(h_.point_format), 0, extra_);
   tally_.add(r);
   if (++buffered_ == chunk_size_) flushChunk();
+}
+
+void LazWriter::endChunk() {
+  if (chunking_ != LazChunking::kVariable)
+    throw LasError(path_ + ": endChunk() needs variable chunking (fixed chunks hold " +
+                   std::to_string(chunk_size_) + " points each)");
+  if (!file_) throw LasError(path_ + ": endChunk() after close()");
+  flushChunk();
 }
 
 void LazWriter::flushChunk() {
@@ -115,7 +130,7 @@ void LazWriter::close() {
   laz::ChunkTable t;
   t.bytes = chunk_bytes_;
   t.counts = chunk_counts_;
-  const std::vector<std::uint8_t> table = laz::encodeChunkTable(t, false);
+  const std::vector<std::uint8_t> table = laz::encodeChunkTable(t, chunking_ == LazChunking::kVariable);
   put(table.data(), table.size());
   writeHeader();
   asLasError([&] { out_.seek(h_.offset_to_points); });

@@ -11,6 +11,9 @@
 #include <limits>
 #include <string>
 
+#include "pcl_delaunay_walk/core/las/las_writer.h"
+#include "pcl_delaunay_walk/core/las/laz_writer.h"
+#include "pcl_delaunay_walk/core/las/synthetic_lidar.h"
 #include "viewer/colour_map.h"
 #include "viewer/scene_geometry.h"
 
@@ -101,6 +104,35 @@ TEST(CloudInput, LasKeepsGeoreferencedPrecisionAndFiltersClasses) {
   const auto mesh = dw_viewer::loadMesh(path, 2);
   EXPECT_EQ(mesh.numVertices(), 26107u);
   EXPECT_EQ(mesh.numTriangles(), 0u) << "a cloud: the viewer triangulates it";
+}
+
+// A LAZ tile (variable chunks) loads to exactly the points of its LAS twin, whole and by class.
+TEST(CloudInput, LazLoadsAsItsLasTwin) {
+  dw::las::LidarGenOptions o;
+  o.num_points = 15000;
+  o.seed = 4;
+  const dw::las::LasHeader h = dw::las::syntheticHeader(o);
+  const std::string las = tempPath("twin.las"), laz = tempPath("twin.laz");
+  {
+    dw::las::LasWriter a(las, h);
+    dw::las::LazWriter b(laz, h, 0, 4000, dw::las::LazChunking::kVariable);
+    std::size_t n = 0;
+    dw::las::generateLidar(o, [&](const dw::las::LasRecord& r) {
+      a.write(r);
+      b.write(r);
+      if (++n % 2500 == 0) b.endChunk();
+    });
+    a.close();
+    b.close();
+  }
+  for (int cls : {-1, 2}) {
+    const auto pa = dw_viewer::loadXyz(las, cls), pb = dw_viewer::loadXyz(laz, cls);
+    ASSERT_GT(pa.size(), 0u);
+    EXPECT_EQ(pa.xyz, pb.xyz) << cls;
+    EXPECT_EQ(pa.input_index, pb.input_index) << cls;
+  }
+  std::remove(las.c_str());
+  std::remove(laz.c_str());
 }
 
 TEST(CloudInput, MeshPolygonsAreFannedAndBadIndicesRejected) {

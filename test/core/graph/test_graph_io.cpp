@@ -89,6 +89,27 @@ TEST(GraphIo, ForeignAndMissingFiles) {
   }
 }
 
+/// loadGraph parses a mapping of the file: an empty file, a directory and a device are refused with
+/// the reason and the path, never mapped or read.
+TEST(GraphIo, MappedLoadRefusesEmptyFilesAndNonRegularFiles) {
+  const std::string path = std::string(DW_BINARY_DIR) + "/test_graph_io_empty.graph";
+  std::ofstream(path).close();
+  auto message = [](const std::string& p) {
+    try {
+      loadGraph(p);
+    } catch (const GraphFileError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no exception");
+  };
+  const std::string empty = message(path);
+  EXPECT_NE(empty.find("shorter than its header"), std::string::npos) << empty;
+  EXPECT_NE(empty.find(path), std::string::npos) << empty;
+  std::remove(path.c_str());
+  EXPECT_NE(message(DW_BINARY_DIR).find("not a regular file"), std::string::npos);
+  EXPECT_NE(message("/dev/zero").find("not a regular file"), std::string::npos);
+}
+
 TEST(GraphIo, HugeClaimedSizesDoNotAllocate) {
   // A header claiming 2^31 vertices on a tiny file must be rejected before any allocation.
   auto bytes = serializeGraph(smallGraph());

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <random>
@@ -13,6 +14,7 @@
 #include <vector>
 
 #include "core/las/laz_codec.h"
+#include "core/las/laz_reader.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/las/las_writer.h"
 #include "pcl_delaunay_walk/core/las/laz_writer.h"
@@ -169,6 +171,101 @@ TEST(LazRoundTrip, LazWriterFilesReadBackAsTheLasTwin) {
       std::remove(lz.c_str());
     }
   }
+}
+
+/// Variable chunks: chunks of 1 to chunk_size points, cut wherever the caller asks, and one cut by
+/// the buffer's cap; the table's counts give the chunk boundaries back, and every reader (streaming
+/// with seeks, parallel whole file, class filter) returns the LAS twin's records.
+TEST(LazRoundTrip, VariableChunksKeepTheirSizesAndReadBackAsTheLasTwin) {
+  for (unsigned format : {1u, 8u}) {
+    dw::las::LidarGenOptions o;
+    o.num_points = 40000;
+    o.seed = 11 + format;
+    dw::las::LasHeader h = dw::las::syntheticHeader(o);
+    h.point_format = std::uint8_t(format);
+    h.version_minor = format >= 6 ? 4 : 2;
+    const std::string las = tmpPath("var" + std::to_string(format) + ".las"),
+                      lz = tmpPath("var" + std::to_string(format) + ".laz");
+    // Cuts after these many points of the current chunk; 9000 exceeds the cap and is cut at 8000.
+    const std::vector<std::uint64_t> pattern = {1, 5000, 9000, 2, 7777, 3000};
+    std::vector<std::uint64_t> expect_counts;
+    {
+      dw::las::LasWriter a(las, h);
+      dw::las::LazWriter b(lz, h, 0, 8000, dw::las::LazChunking::kVariable);
+      std::uint64_t in_chunk = 0, n = 0;
+      std::size_t k = 0;
+      dw::las::generateLidar(o, [&](const LasRecord& r) {
+        a.write(r);
+        b.write(r);
+        ++n;
+        if (++in_chunk == 8000 && pattern[k % pattern.size()] > 8000) {  // the cap cut
+          expect_counts.push_back(in_chunk);
+          in_chunk = 0;
+          ++k;
+        } else if (in_chunk == pattern[k % pattern.size()]) {
+          b.endChunk();
+          b.endChunk();  // an empty chunk is never written
+          expect_counts.push_back(in_chunk);
+          in_chunk = 0;
+          ++k;
+        }
+      });
+      if (in_chunk) expect_counts.push_back(in_chunk);
+      a.close();
+      b.close();
+      EXPECT_THROW(b.endChunk(), dw::las::LasError);
+    }
+    std::FILE* f = std::fopen(lz.c_str(), "rb");
+    ASSERT_TRUE(f);
+    std::fseek(f, 0, SEEK_END);
+    const long size = std::ftell(f);
+    {
+      const dw::las::LasReader r(lz);
+      const dw::las::LazChunks chunks(fileno(f), lz, r.header(), std::uint64_t(size));
+      EXPECT_TRUE(chunks.vlr().variableChunks());
+      ASSERT_EQ(chunks.size(), expect_counts.size()) << format;
+      for (std::size_t c = 0; c < chunks.size(); ++c) ASSERT_EQ(chunks.points(c), expect_counts[c]) << c;
+    }
+    std::fclose(f);
+    dw::las::LasReader ra(las), rb(lz);
+    for (std::uint64_t at :
+         {std::uint64_t(0), std::uint64_t(5001), std::uint64_t(13001), std::uint64_t(39999)}) {
+      ra.seek(at);
+      rb.seek(at);
+      std::vector<LasRecord> va, vb;
+      ASSERT_EQ(ra.read(va, 9000), rb.read(vb, 9000));
+      for (std::size_t i = 0; i < va.size(); ++i) {
+        ASSERT_EQ(std::memcmp(&va[i].X, &vb[i].X, 12), 0) << format << " " << at + i;
+        ASSERT_EQ(va[i].gps_time, vb[i].gps_time);
+        ASSERT_EQ(va[i].classification, vb[i].classification);
+      }
+    }
+    for (unsigned threads : {1u, 3u}) {
+      dw::las::LasReadOptions ro;
+      ro.threads = threads;
+      ro.classification = 2;
+      const auto ca = dw::las::readLasFile(lz, ro), cb = dw::las::readLasFile(las, ro);
+      ASSERT_GT(cb.size(), 0u);
+      EXPECT_EQ(ca.X, cb.X);
+      EXPECT_EQ(ca.Y, cb.Y);
+      EXPECT_EQ(ca.Z, cb.Z);
+    }
+    std::remove(las.c_str());
+    std::remove(lz.c_str());
+  }
+}
+
+TEST(LazRoundTrip, FixedChunksRefuseEndChunkAndBadSizes) {
+  dw::las::LasHeader h;
+  h.version_minor = 2;
+  h.point_format = 1;
+  const std::string lz = tmpPath("fixed.laz");
+  {
+    dw::las::LazWriter w(lz, h, 0, 100);
+    EXPECT_THROW(w.endChunk(), dw::las::LasError);
+  }
+  EXPECT_THROW(dw::las::LazWriter(lz, h, 0, (1u << 24) + 1), dw::las::LasError);
+  std::remove(lz.c_str());
 }
 
 }  // namespace

@@ -2,6 +2,10 @@
 /// \brief Versioned binary graph files. Loading is a bounds-checked copy: sizes are checked against the
 /// file size before any allocation, the payload checksum is verified, and the structure is validated,
 /// so a corrupt, truncated or foreign file gives dw::GraphFileError, never a crash or a wrong graph.
+/// loadGraph parses a read-only memory map of the file, so the payload is copied once (into the
+/// graph's arrays) and no buffer as large as the file is allocated (the mapped pages are page cache).
+/// The graph owns std::vector arrays: a graph that would use the mapping itself as its storage does
+/// not exist yet.
 #pragma once
 
 #include <cstdint>
@@ -22,6 +26,8 @@ void saveGraph(const DelaunayGraph& graph, const std::string& path);
 
 /// Parses bytes / a file. Throws dw::GraphFileError with the reason on any defect.
 DelaunayGraph deserializeGraph(const std::uint8_t* data, std::size_t size);
+/// Throws GraphFileError naming `path`. The file must not be truncated by another process while it
+/// loads (a mapped page past a new end would fault).
 DelaunayGraph loadGraph(const std::string& path);
 
 /// The file format's checksum (64-bit word-wise multiply-xorshift) over n bytes.

@@ -34,8 +34,13 @@ class LasReader {
   std::uint64_t remaining() const { return header_.point_count - next_; }
   /// Reads up to `max_records` records into `out` (replacing its content); returns how many (0 at end).
   std::size_t read(std::vector<LasRecord>& out, std::size_t max_records = 1 << 16);
-  /// Positions the reader at record `index` (for byte-range readers such as the MPI driver).
+  /// Positions the reader at record `index` (for byte-range readers such as the MPI driver). In a LAZ
+  /// file the chunk holding `index` is decoded from its start: readers that split a file should split
+  /// it at chunkStarts().
   void seek(std::uint64_t index);
+  /// LAZ: the first record of every chunk, ascending, starting with 0 (chunks are decoded whole, so
+  /// they are the units in which a LAZ file is best split). LAS: empty (any record is a boundary).
+  std::vector<std::uint64_t> chunkStarts() const;
 
  private:
   std::string path_;
