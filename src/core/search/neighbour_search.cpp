@@ -52,6 +52,18 @@ float edgeReach(double bound_d2, double dv) {
   return static_cast<float>((std::sqrt(bound_d2) + dv) * (1.0 / (2.0 * (1.0 - 1e-5))));
 }
 
+/// Starts loading a vertex's edge records, which an expansion reads soon after the vertex is listed.
+/// The records (36 MB on a 125k-point KITTI frame) do not stay in L2, and the chain record -> mark ->
+/// position gives the core little to overlap: this was 20 % of a self-kNN query (k = 16, KITTI).
+/// A neighbourhood of ~15 edges spans 5 lines; the first four are fetched.
+inline void prefetchRecords(const EdgeRecord* first) {
+  const char* r = reinterpret_cast<const char*>(first);
+  __builtin_prefetch(r);
+  __builtin_prefetch(r + 64);
+  __builtin_prefetch(r + 128);
+  __builtin_prefetch(r + 192);
+}
+
 /// The vertices nearest q as a bounded best-first list (s.list, ascending (d2, v)): the shortest
 /// prefix of the order that holds k inputs, every vertex no farther than stop_above (inclusive).
 ///
@@ -105,6 +117,7 @@ void nearestVertices(const DelaunayGraph& g, const Vec3f& q, index_t start, std:
       if (!(d2 < bound_d2 || (d2 == bound_d2 && j < bound_v))) continue;
       // Insert in order, then drop the tail that k inputs before it make unnecessary.
       const index_t count = inputs[j + 1] - inputs[j];
+      prefetchRecords(edges + offsets[j]);
       std::size_t p = size++;
       for (; p > 0 && (d2 < list[p - 1].d2 || (d2 == list[p - 1].d2 && j < list[p - 1].v)); --p)
         list[p] = list[p - 1];
@@ -147,7 +160,10 @@ void verticesWithin(const DelaunayGraph& g, const Vec3f& q, index_t start, doubl
       if (stamp[j] == epoch) continue;
       stamp[j] = epoch;
       const double d2 = squaredDistanceD(q, pts[j]);
-      if (d2 <= r2) list.push_back({d2, j, inputs[j + 1] - inputs[j]});
+      if (d2 <= r2) {
+        list.push_back({d2, j, inputs[j + 1] - inputs[j]});
+        prefetchRecords(edges + offsets[j]);
+      }
     }
   }
   std::sort(list.begin(), list.end(), before);
