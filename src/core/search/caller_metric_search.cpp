@@ -44,6 +44,7 @@ void sortNearlySorted(std::vector<WalkNeighbour>& out) {
 struct Scratch {
   std::vector<dw::index_t> inputs;
   std::vector<float> dist2;
+  std::vector<dw::VertexNeighbour> vertices;
   static Scratch& get() {
     thread_local Scratch s;
     return s;
@@ -145,6 +146,26 @@ void CallerMetricSearch::collect(const float q[3], const std::vector<dw::index_t
     out.push_back({callerDistance(q, inputs[i]), cloudIndex(inputs[i])});
 }
 
+void CallerMetricSearch::collectVertices(const float q[3], const std::vector<dw::VertexNeighbour>& vertices,
+                                         std::size_t count, std::vector<WalkNeighbour>& out) const {
+  out.clear();
+  const dw::DelaunayGraph& g = search_->graph();
+  for (const dw::VertexNeighbour& vn : vertices) {
+    if (out.size() >= count) break;
+    const VertexRecord& r = vertex_[vn.vertex];
+    if (r.cloud != kMixed && vn.inputs == 1) {
+      out.push_back({distance(q, r.xyz), r.cloud});
+      continue;
+    }
+    const float shared = r.cloud != kMixed ? distance(q, r.xyz) : 0.f;
+    for (dw::index_t o = g.originals_offsets[vn.vertex];
+         o < g.originals_offsets[vn.vertex + 1] && out.size() < count; ++o) {
+      const dw::index_t in = g.originals[o];
+      out.push_back({r.cloud != kMixed ? shared : callerDistance(q, in), cloudIndex(in)});
+    }
+  }
+}
+
 bool CallerMetricSearch::nearest(const float q[3], dw::StartStrategy strategy, dw::index_t hint,
                                  WalkNeighbour& out, CallerMetricSearchStats* stats) const {
   dw::Vec3f ql;
@@ -225,12 +246,23 @@ std::size_t CallerMetricSearch::knn(const float q[3], std::size_t k, dw::StartSt
   if (!locate(q, strategy, hint, ql, qe, nn, stats)) return 0;
   Scratch& s = Scratch::get();
   const std::size_t want = k < num_finite_ ? k + 1 : k;
-  search_->knn(ql, want, nn, s.inputs, s.dist2);
-  if (s.inputs.size() == k + 1) {
-    const float dk = s.dist2[k - 1];
+  // By vertex: the caller coordinates come from vertex_, in the graph's order, next to what the
+  // expansion has just read, rather than from the input-ordered cloud (a miss per neighbour).
+  const std::size_t found = search_->knnVertices(ql, want, nn, s.vertices);
+  if (found >= k + 1) {
+    float dk = 0.f, dk1 = 0.f;  // the k-th and (k+1)-th inputs' local distances
+    std::size_t seen = 0;
+    for (const dw::VertexNeighbour& vn : s.vertices) {
+      if (seen < k && seen + vn.inputs >= k) dk = vn.dist2;
+      if (seen + vn.inputs > k) {
+        dk1 = vn.dist2;
+        break;
+      }
+      seen += vn.inputs;
+    }
     const float bound = dk + 2.f * tolerance(dk, qe);
-    if (s.dist2[k] > bound) {
-      collect(q, s.inputs, k, out);
+    if (dk1 > bound) {
+      collectVertices(q, s.vertices, k, out);
     } else {
       // The k-th and (k+1)-th are within rounding of each other: take everything in the uncertain
       // band and let the caller's metric decide.
@@ -239,7 +271,7 @@ std::size_t CallerMetricSearch::knn(const float q[3], std::size_t k, dw::StartSt
       if (stats) stats->widened = true;
     }
   } else {
-    collect(q, s.inputs, s.inputs.size(), out);
+    collectVertices(q, s.vertices, found, out);
   }
   sortNearlySorted(out);
   if (out.size() > k) out.resize(k);
