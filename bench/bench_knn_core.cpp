@@ -324,12 +324,13 @@ class RatioReporter : public benchmark::ConsoleReporter {
  public:
   void ReportRuns(const std::vector<Run>& runs) override {
     for (const Run& r : runs) {
+      // With repetitions, the median stands for the run.
+      if (r.run_type == Run::RT_Aggregate && r.aggregate_name != "median") continue;
       const auto it = r.counters.find("ns_per_query");
       if (it == r.counters.end()) continue;
-      std::string name = r.benchmark_name();
+      std::string name = r.run_name.str();
       const std::string suffix = "/process_time";
-      if (name.size() > suffix.size() &&
-          name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
+      if (name.size() > suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
         name.resize(name.size() - suffix.size());
       const auto slash = name.find_last_of('/');
       results()[name.substr(0, slash)][name.substr(slash + 1)] = it->second.value;
