@@ -300,8 +300,22 @@ std::size_t CallerMetricSearch::radius(const float q[3], double radius, std::siz
     }
   };
   if (limit == 0) {
-    search_->radius(ql, bound, nn, s.inputs, s.dist2, 0);
-    keepInside(s.inputs.size());
+    // By vertex, as knn(): caller coordinates from vertex_, in graph order.
+    search_->radiusVertices(ql, bound, nn, s.vertices);
+    const dw::DelaunayGraph& g = search_->graph();
+    for (const dw::VertexNeighbour& vn : s.vertices) {
+      const VertexRecord& rec = vertex_[vn.vertex];
+      if (rec.cloud != kMixed && vn.inputs == 1) {
+        const float d = distance(q, rec.xyz);
+        if (d < r2) out.push_back({d, rec.cloud});  // strict, as FLANN's radius result set
+        continue;
+      }
+      for (dw::index_t o = g.originals_offsets[vn.vertex]; o < g.originals_offsets[vn.vertex + 1]; ++o) {
+        const dw::index_t in = g.originals[o];
+        const float d = rec.cloud != kMixed ? distance(q, rec.xyz) : callerDistance(q, in);
+        if (d < r2) out.push_back({d, cloudIndex(in)});
+      }
+    }
   } else {
     search_->radius(ql, bound, nn, s.inputs, s.dist2, limit + 1);
     if (s.inputs.size() <= limit) {

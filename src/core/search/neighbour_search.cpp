@@ -218,6 +218,21 @@ std::size_t NeighbourSearch::knnVertices(const Vec3f& q, std::size_t k, const Wa
   return inputs;
 }
 
+std::size_t NeighbourSearch::radiusVertices(const Vec3f& q, float radius2, const WalkResult& nn,
+                                            std::vector<VertexNeighbour>& out) const {
+  out.clear();
+  const DelaunayGraph& g = *graph_;
+  if (!(radius2 >= 0.f) || !validStart(g, nn)) return 0;
+  SearchScratch& s = SearchScratch::threadLocal();
+  verticesWithin(g, q, nn.vertex, radius2, s);
+  std::size_t inputs = 0;
+  for (const SearchCandidate& c : s.list) {
+    out.push_back({c.v, c.inputs(), static_cast<float>(c.d2)});
+    inputs += c.inputs();
+  }
+  return inputs;
+}
+
 std::size_t NeighbourSearch::radius(const Vec3f& q, float radius2, const WalkResult& nn,
                                     std::vector<index_t>& indices, std::vector<float>& dist2,
                                     std::size_t max_nn) const {

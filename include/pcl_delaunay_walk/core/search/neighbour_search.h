@@ -53,6 +53,11 @@ class NeighbourSearch {
   std::size_t knnVertices(const Vec3f& q, std::size_t k, const WalkResult& nn,
                           std::vector<VertexNeighbour>& out) const;
 
+  /// radius() (no limit) by vertex: every vertex within squared distance radius2, ascending (distance,
+  /// vertex). Returns the inputs they hold.
+  std::size_t radiusVertices(const Vec3f& q, float radius2, const WalkResult& nn,
+                             std::vector<VertexNeighbour>& out) const;
+
   /// Every input point with squared distance <= radius2, ascending, at most max_nn (0: no limit).
   std::size_t radius(const Vec3f& q, float radius2, const WalkResult& nn, std::vector<index_t>& indices,
                      std::vector<float>& dist2, std::size_t max_nn = 0) const;
