@@ -19,10 +19,32 @@ bool byDistanceThenIndex(const WalkNeighbour& a, const WalkNeighbour& b) {
   return a.sqr_distance < b.sqr_distance || (a.sqr_distance == b.sqr_distance && a.index < b.index);
 }
 
+/// Sorts by (distance, index) answers that come in the core's order: its local-frame distances differ
+/// from the caller's only by rounding, so entries are at most a few places out of order and an
+/// insertion sort is about linear (std::sort on the k + 1 answers of a kNN query cost ~10 % of it).
+/// Should many entries be far out of place (thousands of duplicates whose caller coordinates
+/// differ), it hands over to std::sort once the moves exceed a few per entry.
+void sortNearlySorted(std::vector<WalkNeighbour>& out) {
+  std::size_t moves = 0;
+  const std::size_t budget = 8 * out.size() + 64;
+  for (std::size_t i = 1; i < out.size(); ++i) {
+    const WalkNeighbour c = out[i];
+    std::size_t j = i;
+    for (; j > 0 && byDistanceThenIndex(c, out[j - 1]); --j) out[j] = out[j - 1];
+    out[j] = c;
+    moves += i - j;
+    if (moves > budget) {
+      std::sort(out.begin(), out.end(), byDistanceThenIndex);
+      return;
+    }
+  }
+}
+
 /// Per-thread buffers for the core's answers: steady-state queries allocate nothing.
 struct Scratch {
   std::vector<dw::index_t> inputs;
   std::vector<float> dist2;
+  std::vector<dw::VertexNeighbour> vertices;
   static Scratch& get() {
     thread_local Scratch s;
     return s;
@@ -124,6 +146,26 @@ void CallerMetricSearch::collect(const float q[3], const std::vector<dw::index_t
     out.push_back({callerDistance(q, inputs[i]), cloudIndex(inputs[i])});
 }
 
+void CallerMetricSearch::collectVertices(const float q[3], const std::vector<dw::VertexNeighbour>& vertices,
+                                         std::size_t count, std::vector<WalkNeighbour>& out) const {
+  out.clear();
+  const dw::DelaunayGraph& g = search_->graph();
+  for (const dw::VertexNeighbour& vn : vertices) {
+    if (out.size() >= count) break;
+    const VertexRecord& r = vertex_[vn.vertex];
+    if (r.cloud != kMixed && vn.inputs == 1) {
+      out.push_back({distance(q, r.xyz), r.cloud});
+      continue;
+    }
+    const float shared = r.cloud != kMixed ? distance(q, r.xyz) : 0.f;
+    for (dw::index_t o = g.originals_offsets[vn.vertex];
+         o < g.originals_offsets[vn.vertex + 1] && out.size() < count; ++o) {
+      const dw::index_t in = g.originals[o];
+      out.push_back({r.cloud != kMixed ? shared : callerDistance(q, in), cloudIndex(in)});
+    }
+  }
+}
+
 bool CallerMetricSearch::nearest(const float q[3], dw::StartStrategy strategy, dw::index_t hint,
                                  WalkNeighbour& out, CallerMetricSearchStats* stats) const {
   dw::Vec3f ql;
@@ -204,12 +246,23 @@ std::size_t CallerMetricSearch::knn(const float q[3], std::size_t k, dw::StartSt
   if (!locate(q, strategy, hint, ql, qe, nn, stats)) return 0;
   Scratch& s = Scratch::get();
   const std::size_t want = k < num_finite_ ? k + 1 : k;
-  search_->knn(ql, want, nn, s.inputs, s.dist2);
-  if (s.inputs.size() == k + 1) {
-    const float dk = s.dist2[k - 1];
+  // By vertex: the caller coordinates come from vertex_, in the graph's order, next to what the
+  // expansion has just read, rather than from the input-ordered cloud (a miss per neighbour).
+  const std::size_t found = search_->knnVertices(ql, want, nn, s.vertices);
+  if (found >= k + 1) {
+    float dk = 0.f, dk1 = 0.f;  // the k-th and (k+1)-th inputs' local distances
+    std::size_t seen = 0;
+    for (const dw::VertexNeighbour& vn : s.vertices) {
+      if (seen < k && seen + vn.inputs >= k) dk = vn.dist2;
+      if (seen + vn.inputs > k) {
+        dk1 = vn.dist2;
+        break;
+      }
+      seen += vn.inputs;
+    }
     const float bound = dk + 2.f * tolerance(dk, qe);
-    if (s.dist2[k] > bound) {
-      collect(q, s.inputs, k, out);
+    if (dk1 > bound) {
+      collectVertices(q, s.vertices, k, out);
     } else {
       // The k-th and (k+1)-th are within rounding of each other: take everything in the uncertain
       // band and let the caller's metric decide.
@@ -218,15 +271,10 @@ std::size_t CallerMetricSearch::knn(const float q[3], std::size_t k, dw::StartSt
       if (stats) stats->widened = true;
     }
   } else {
-    collect(q, s.inputs, s.inputs.size(), out);
+    collectVertices(q, s.vertices, found, out);
   }
-  if (out.size() > k) {
-    std::partial_sort(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(k), out.end(),
-                      byDistanceThenIndex);
-    out.resize(k);
-  } else {
-    std::sort(out.begin(), out.end(), byDistanceThenIndex);
-  }
+  sortNearlySorted(out);
+  if (out.size() > k) out.resize(k);
   return out.size();
 }
 
@@ -252,8 +300,22 @@ std::size_t CallerMetricSearch::radius(const float q[3], double radius, std::siz
     }
   };
   if (limit == 0) {
-    search_->radius(ql, bound, nn, s.inputs, s.dist2, 0);
-    keepInside(s.inputs.size());
+    // By vertex, as knn(): caller coordinates from vertex_, in graph order.
+    search_->radiusVertices(ql, bound, nn, s.vertices);
+    const dw::DelaunayGraph& g = search_->graph();
+    for (const dw::VertexNeighbour& vn : s.vertices) {
+      const VertexRecord& rec = vertex_[vn.vertex];
+      if (rec.cloud != kMixed && vn.inputs == 1) {
+        const float d = distance(q, rec.xyz);
+        if (d < r2) out.push_back({d, rec.cloud});  // strict, as FLANN's radius result set
+        continue;
+      }
+      for (dw::index_t o = g.originals_offsets[vn.vertex]; o < g.originals_offsets[vn.vertex + 1]; ++o) {
+        const dw::index_t in = g.originals[o];
+        const float d = rec.cloud != kMixed ? distance(q, rec.xyz) : callerDistance(q, in);
+        if (d < r2) out.push_back({d, cloudIndex(in)});
+      }
+    }
   } else {
     search_->radius(ql, bound, nn, s.inputs, s.dist2, limit + 1);
     if (s.inputs.size() <= limit) {
@@ -270,7 +332,7 @@ std::size_t CallerMetricSearch::radius(const float q[3], double radius, std::siz
       }
     }
   }
-  std::sort(out.begin(), out.end(), byDistanceThenIndex);
+  sortNearlySorted(out);
   if (limit != 0 && out.size() > limit) out.resize(limit);
   return out.size();
 }

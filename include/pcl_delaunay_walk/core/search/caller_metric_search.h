@@ -112,6 +112,9 @@ class CallerMetricSearch {
               dw::WalkResult& nn, CallerMetricSearchStats* stats) const;
   void collect(const float q[3], const std::vector<dw::index_t>& inputs, std::size_t count,
                std::vector<WalkNeighbour>& out) const;
+  /// The first `count` inputs of the listed vertices, in list order, in the caller's metric.
+  void collectVertices(const float q[3], const std::vector<dw::VertexNeighbour>& vertices, std::size_t count,
+                       std::vector<WalkNeighbour>& out) const;
 
   std::shared_ptr<const dw::NeighbourSearch> search_;
   std::vector<float> xyz_;

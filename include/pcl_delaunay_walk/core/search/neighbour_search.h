@@ -14,6 +14,13 @@
 
 namespace dw {
 
+/// One vertex of a kNN answer: every input collapsed onto it lies at squared distance dist2.
+struct VertexNeighbour {
+  index_t vertex;
+  index_t inputs;  ///< how many inputs share the vertex
+  float dist2;
+};
+
 class NeighbourSearch {
  public:
   using Ptr = std::shared_ptr<NeighbourSearch>;
@@ -39,6 +46,17 @@ class NeighbourSearch {
   /// `nn` is q's nearest vertex (from nearest()). Returns the number found.
   std::size_t knn(const Vec3f& q, std::size_t k, const WalkResult& nn, std::vector<index_t>& indices,
                   std::vector<float>& dist2) const;
+
+  /// The same answer as knn() by vertex: the fewest nearest vertices that hold k inputs (all vertices
+  /// if fewer), ascending (distance, vertex). Returns the inputs they hold (>= k unless all are in).
+  /// For callers that read per-vertex data next to the graph's own order.
+  std::size_t knnVertices(const Vec3f& q, std::size_t k, const WalkResult& nn,
+                          std::vector<VertexNeighbour>& out) const;
+
+  /// radius() (no limit) by vertex: every vertex within squared distance radius2, ascending (distance,
+  /// vertex). Returns the inputs they hold.
+  std::size_t radiusVertices(const Vec3f& q, float radius2, const WalkResult& nn,
+                             std::vector<VertexNeighbour>& out) const;
 
   /// Every input point with squared distance <= radius2, ascending, at most max_nn (0: no limit).
   std::size_t radius(const Vec3f& q, float radius2, const WalkResult& nn, std::vector<index_t>& indices,
