@@ -22,6 +22,7 @@
 #pragma GCC diagnostic ignored "-Warray-bounds"
 #endif
 
+#include <malloc.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -132,6 +133,7 @@ struct Options {
   std::set<std::string> sections{"build", "nn", "knn", "icp"};
   std::vector<unsigned> threads{1};
   std::vector<std::size_t> ks{8, 16, 32};
+  std::set<std::string> orders{"icp", "shuffled"};
   std::size_t iterations = 10, knn_queries = 100000, max_queries = 1000000;
   int repeats = 2;
 };
@@ -147,8 +149,8 @@ std::vector<std::string> split(const std::string& s) {
 
 const char* kUsage =
     "usage: dw_peers [--sections build,nn,knn,icp] [--datasets a,b] [--methods a,b] [--threads 1,2,4]\n"
-    "                [--iterations N] [--repeats N] [--k 8,16,32] [--knn-queries N] [--max-queries N] [--out "
-    "DIR]\n"
+    "                [--iterations N] [--repeats N] [--k 8,16,32] [--knn-queries N] [--max-queries N]\n"
+    "                [--orders icp,shuffled] [--out DIR]\n"
     "data sets: dragon-23k dragon-100k dragon-437k kitti fastgicp autzen uniform-1M scene-10M (generated)\n"
     "methods: walk-pnn-optimized walk-kd-ann walk-pnn-optimized-sorted-prefetch walk-pnn and the peers:\n";
 
@@ -193,6 +195,11 @@ Options parse(int argc, char** argv) {
       for (const auto& s : split(v)) o.threads.push_back(unsigned(num(s)));
       for (unsigned t : o.threads)
         if (t < 1 || t > 256) throw dw::Error("dw_peers: thread counts must be in 1..256");
+    } else if (k == "orders") {
+      const auto s = split(v);
+      o.orders = std::set<std::string>(s.begin(), s.end());
+      for (const auto& x : o.orders)
+        if (x != "icp" && x != "shuffled") throw dw::Error("dw_peers: unknown query order '" + x + "'");
     } else if (k == "k") {
       o.ks.clear();
       for (const auto& s : split(v)) o.ks.push_back(std::size_t(num(s)));
@@ -369,7 +376,8 @@ double bestOf(int repeats, const std::function<void()>& f, double* cpu_out = nul
 
 /// Rise of the peak resident set while `build` runs, measured in a forked child (so that the parent's
 /// heap and the earlier builds do not count): the child resets its peak (clear_refs 5), builds, and
-/// reports VmHWM minus its resident size before the build. -1 where the kernel cannot tell.
+/// reports VmHWM minus its resident size before the build (free heap trimmed first). -1 where the
+/// kernel cannot tell.
 long long peakBuildBytes(const std::function<void()>& build) {
   int fd[2];
   if (::pipe(fd) != 0) return -1;
@@ -385,6 +393,9 @@ long long peakBuildBytes(const std::function<void()>& build) {
       return -1LL;
     };
     long long v = -1;
+    // Free heap pages inherited from the parent would be reused without raising the resident size:
+    // hand them back first, so that every page the build touches counts.
+    ::malloc_trim(0);
     {
       std::ofstream clear("/proc/self/clear_refs");
       clear << "5";
@@ -523,6 +534,7 @@ void sectionNn(const Options& o, const Scene& s, const Built& b, Csv& csv) {
   std::vector<std::string> cols;
   for (const auto& [order, sq] :
        {std::pair<std::string, const dwb::IcpSequence*>{"icp", &seq}, {"shuffled", &shuffled}}) {
+    if (!o.orders.count(order)) continue;
     const dwb::QueryReplay replay(*sq);
     dwb::NnBatch batch;
     std::vector<std::vector<int>> want, got;

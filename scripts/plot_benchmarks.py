@@ -532,7 +532,7 @@ def peers_style(method):
     colours = {"walk-pnn-optimized": "C3", "walk-kd-ann": "C1", "walk-pnn-optimized-sorted-prefetch": "C5",
                "pico_tree": "C0", "nanoflann-1.12": "C2", "nanoflann-1.4": "C8", "small_gicp": "C4",
                "pcl-kdtree": "C7"}
-    c = next((v for k, v in colours.items() if method.startswith(k)), "C9")
+    c = next((colours[k] for k in sorted(colours, key=len, reverse=True) if method.startswith(k)), "C9")
     return dict(color=c, linestyle="-" if method.startswith("walk-") else "--", marker="o")
 
 
@@ -552,13 +552,17 @@ def peers_nn(res, figs, md):
         wrong = sum(int(r["wrong"]) for r in one)
         md.append(f"### Exact 1-NN, ICP-like sequence, queries in {'ICP' if order == 'icp' else 'shuffled'} order, "
                   f"one thread (CPU ns/query; wrong answers: {wrong})\n")
-        hdr = ["data set (points)"] + methods + ["default walk / fastest peer"]
+        hdr = ["data set (points)"] + methods + ["fastest peer / default walk", "/ estimator order"]
         body = []
         for n, d in sets:
             peers = [ns[(d, m)] for m in methods if not m.startswith("walk-") and (d, m) in ns]
-            walk = ns.get((d, "walk-pnn-optimized"))
-            ratio = f"**{min(peers) / walk:.2f}×**" if peers and walk else "–"
-            body.append([f"{d} ({n:,})"] + [f"{ns[(d, m)]:.0f}" if (d, m) in ns else "–" for m in methods] + [ratio])
+            ratios = []
+            for w in ("walk-pnn-optimized", "walk-pnn-optimized-sorted-prefetch"):
+                walk = ns.get((d, w))
+                ratios.append(f"**{min(peers) / walk:.2f}×**" if peers and walk else "–")
+            if not peers and not any((d, m) in ns for m in methods):
+                continue
+            body.append([f"{d} ({n:,})"] + [f"{ns[(d, m)]:.0f}" if (d, m) in ns else "–" for m in methods] + ratios)
         md.append(table(hdr, body))
         md.append("")
         if order == "icp":
