@@ -579,15 +579,14 @@ double meanSpacing(const dwb::KnnBatch& b) {
 }
 
 void sectionKnn(const Options& o, const Scene& s, const Built& b, Csv& csv) {
-  // Self-queries: every reference point up to knn_queries, strided; their slots are the points' own
-  // indices only when nothing was left out, so striding picks the queries from the reference itself.
+  // Self-queries: every m-th reference point, at most knn_queries of them.
   const std::size_t n = s.size(), m = std::max<std::size_t>(1, (n + o.knn_queries - 1) / o.knn_queries);
   std::vector<float> self_q;
   for (std::size_t i = 0; i < n; i += m) self_q.insert(self_q.end(), &s.target[3 * i], &s.target[3 * i] + 3);
-  const bool exact_self = m == 1;  // the walk may start at query i's own vertex only then
+
   const std::vector<float> foreign = strided(s.source, o.knn_queries);
   dwb::KnnBatch ref, got;
-  b.reference->knn(self_q.data(), self_q.size() / 3, 8, ref, 1, exact_self);
+  b.reference->knn(self_q.data(), self_q.size() / 3, 8, ref, 1, m);
   const double spacing = meanSpacing(ref);
   const float r2 = float(std::pow(2.5 * spacing, 2));
   std::cout << "  knn: " << self_q.size() / 3 << " self-queries, " << foreign.size() / 3
@@ -606,7 +605,7 @@ void sectionKnn(const Options& o, const Scene& s, const Built& b, Csv& csv) {
   for (const Job& j : jobs) {
     const std::vector<float>& q = j.query == "self" ? self_q : foreign;
     const std::size_t nq = q.size() / 3;
-    const bool self = j.query == "self" && exact_self;
+    const std::size_t self = j.query == "self" ? m : 0;  // query i is reference point i * m
     auto run = [&](dwb::NnMethod& mm, dwb::KnnBatch& out, unsigned t) {
       if (j.kind == "knn")
         mm.knn(q.data(), nq, j.k, out, t, self);

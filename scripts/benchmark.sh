@@ -57,21 +57,25 @@ if [ -n "$TABLE" ]; then
   rm -rf "$RES"
   mkdir -p "$RES"
   P="$PEER_BUILD/bench/dw_peers"
-  SETS=dragon-100k,dragon-437k,kitti,fastgicp,autzen,uniform-1M
   case "$TABLE" in
     pipelines)
       cmake --build "$PEER_BUILD" --target dw_pcl_pipelines -j "$JOBS"
-      "$PEER_BUILD/bench/dw_pcl_pipelines" --out "$RES" "${EXTRA[@]}" | tee "$RES/run.log" ;;
+      OMP_NUM_THREADS=1 "$PEER_BUILD/bench/dw_pcl_pipelines" --datasets dragon-100k,kitti --threads 1,2 --repeats 1 \
+        --out "$RES" "${EXTRA[@]}" | tee "$RES/run.log" ;;
     *)
       cmake --build "$PEER_BUILD" --target dw_peers -j "$JOBS"
+      export OMP_NUM_THREADS=1  # PCL's FLANN would otherwise start OpenMP teams per query
+      run() { local sub=$1; shift; mkdir -p "$RES/$sub"; "$P" "$@" --out "$RES/$sub" "${EXTRA[@]}" | tee "$RES/$sub/run.log"; }
       case "$TABLE" in
-        peers-nn) ARGS=(--sections nn --datasets $SETS --iterations 10 --repeats 2) ;;
-        peers-knn) ARGS=(--sections knn --datasets dragon-100k,kitti,autzen --knn-queries 50000 --repeats 2) ;;
-        peers-icp) ARGS=(--sections icp --datasets kitti,fastgicp,dragon-100k --repeats 2) ;;
-        peers-build) ARGS=(--sections build --datasets $SETS --repeats 2) ;;
-        peers-10M) ARGS=(--sections build,nn --datasets scene-10M --iterations 5 --repeats 1 --max-queries 1000000) ;;
+        peers-nn)
+          run a --sections nn --datasets dragon-100k,kitti,fastgicp,autzen --iterations 10 --repeats 2
+          run b --sections nn --datasets dragon-437k,uniform-1M --iterations 3 --repeats 1 ;;
+        peers-knn)
+          for d in dragon-100k kitti autzen; do run "$d" --sections knn --datasets "$d" --knn-queries 30000 --repeats 2; done ;;
+        peers-icp) run a --sections icp --datasets kitti,fastgicp,dragon-100k --repeats 1 ;;
+        peers-build) run a --sections build --datasets dragon-100k,dragon-437k,kitti,fastgicp,autzen,uniform-1M --repeats 1 ;;
+        peers-10M) run a --sections build,nn --datasets scene-10M --iterations 3 --repeats 1 --orders icp ;;
       esac
-      "$P" "${ARGS[@]}" --out "$RES" "${EXTRA[@]}" | tee "$RES/run.log"
       PYTHON=${PYTHON:-/usr/bin/python3}
       "$PYTHON" scripts/plot_benchmarks.py --peers "$RES" --figures "$FIGURES" ;;
   esac

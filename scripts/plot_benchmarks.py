@@ -671,7 +671,7 @@ def peers_icp(res, figs, md):
                          "–" if own else f"{s2m * 1e3:.1f}" + (f" ({best_s2m / s2m:.2f}×)" if best_s2m else ""),
                          f"{float(r['rot_diff_deg']):.2g}° / {float(r['trans_diff']):.2g}"])
     md.append(table(["data set", "method", "iterations", "scan-to-scan (build inside)", "scan-to-model (build excluded)",
-                     "pose vs the walk's"], body))
+                     "pose vs the walk's (° / m)"], body))
     md.append("\n(own registrations: small_gicp's ICP/GICP and stock PCL ICP time their whole call; in brackets: "
               "the fastest peer tree's time over this method's in the same ICP loop)\n")
     fig, axes = plt.subplots(1, len(sets), figsize=(4.5 * len(sets), 4), squeeze=False)

@@ -87,19 +87,20 @@ class NnMethod {
   }
   /// Whether knn() and radius() are implemented.
   virtual bool hasKnn() const { return false; }
-  /// The k nearest reference points of each query. With `self`, query i IS reference point i (what
-  /// NormalEstimation and GICP's covariances ask): a method may use that (the walk starts at the
-  /// point's own vertex); the answers include the point itself.
+  /// The k nearest reference points of each query. With self_stride s > 0, query i IS reference point
+  /// i * s (self-queries, what NormalEstimation and GICP's covariances ask): a method may use that
+  /// (the walk starts at the point's own vertex); the answers include the point itself.
   void knn(const float* queries, std::size_t n, std::size_t k, KnnBatch& out, unsigned threads = 1,
-           bool self = false) {
+           std::size_t self_stride = 0) {
     out.resize(n, k);
-    split(n, threads, [&](std::size_t b, std::size_t e) { knnRange(queries, b, e, k, self, out); });
+    split(n, threads, [&](std::size_t b, std::size_t e) { knnRange(queries, b, e, k, self_stride, out); });
   }
   /// Every reference point within squared distance r2 of each query (counts and farthest only).
   void radius(const float* queries, std::size_t n, float r2, KnnBatch& out, unsigned threads = 1,
-              bool self = false) {
+              std::size_t self_stride = 0) {
     out.resize(n, 0);
-    split(n, threads, [&](std::size_t b, std::size_t e) { radiusRange(queries, b, e, r2, self, out); });
+    split(n, threads,
+          [&](std::size_t b, std::size_t e) { radiusRange(queries, b, e, r2, self_stride, out); });
   }
   /// Whether the method reports walk steps.
   virtual bool isWalk() const { return false; }
@@ -108,10 +109,10 @@ class NnMethod {
 
  protected:
   virtual void nearestRange(const float* q, std::size_t begin, std::size_t end, NnBatch& out) = 0;
-  virtual void knnRange(const float*, std::size_t, std::size_t, std::size_t, bool, KnnBatch&) {
+  virtual void knnRange(const float*, std::size_t, std::size_t, std::size_t, std::size_t, KnnBatch&) {
     throw dw::Error("dw_bench: " + name() + " has no kNN search here");
   }
-  virtual void radiusRange(const float*, std::size_t, std::size_t, float, bool, KnnBatch&) {
+  virtual void radiusRange(const float*, std::size_t, std::size_t, float, std::size_t, KnnBatch&) {
     throw dw::Error("dw_bench: " + name() + " has no radius search here");
   }
   /// Stores one query's sorted answers into its slots of `out` (kNN) or its count/farthest (radius).
@@ -248,7 +249,7 @@ class WalkNn : public NnMethod {
   bool hasKnn() const override { return true; }
   // kNN and radius expand best-first from the query's nearest vertex: a self-query's is its own vertex
   // (no walk), a foreign query's comes from a walk started by this method's strategy.
-  void knnRange(const float* q, std::size_t b, std::size_t e, std::size_t k, bool self,
+  void knnRange(const float* q, std::size_t b, std::size_t e, std::size_t k, std::size_t self,
                 KnnBatch& out) override {
     std::vector<dw::index_t> idx;
     std::vector<float> d2;
@@ -258,7 +259,7 @@ class WalkNn : public NnMethod {
       store(out, i, idx.data(), d2.data(), found);
     }
   }
-  void radiusRange(const float* q, std::size_t b, std::size_t e, float r2, bool self,
+  void radiusRange(const float* q, std::size_t b, std::size_t e, float r2, std::size_t self,
                    KnnBatch& out) override {
     std::vector<dw::index_t> idx;
     std::vector<float> d2;
@@ -270,11 +271,13 @@ class WalkNn : public NnMethod {
   }
 
  private:
-  dw::WalkResult start(const dw::Vec3f& p, std::size_t i, bool self) const {
+  // Query i of a self-query batch of stride s is input point i * s.
+  dw::WalkResult start(const dw::Vec3f& p, std::size_t i, std::size_t self_stride) const {
     const dw::DelaunayGraph& g = search_->graph();
-    if (self && i < g.input_to_vertex.size() && g.input_to_vertex[i] != dw::kInvalidIndex) {
+    const std::size_t input = i * self_stride;
+    if (self_stride && input < g.input_to_vertex.size() && g.input_to_vertex[input] != dw::kInvalidIndex) {
       dw::WalkResult r;
-      r.vertex = g.input_to_vertex[i];
+      r.vertex = g.input_to_vertex[input];
       const dw::Vec3f d = g.points[r.vertex] - p;
       r.dist2 = dw::dot(d, d);
       return r;

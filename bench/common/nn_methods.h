@@ -54,7 +54,8 @@ class PclKdTreeNn : public NnMethod {
     }
   }
   bool hasKnn() const override { return true; }
-  void knnRange(const float* q, std::size_t b, std::size_t e, std::size_t k, bool, KnnBatch& out) override {
+  void knnRange(const float* q, std::size_t b, std::size_t e, std::size_t k, std::size_t,
+                KnnBatch& out) override {
     pcl::Indices idx;
     std::vector<float> d2;
     for (std::size_t i = b; i < e; ++i) {
@@ -64,7 +65,8 @@ class PclKdTreeNn : public NnMethod {
     }
   }
   // The tree was made unsorted (KdTree(false)), as NormalEstimation and clustering use it.
-  void radiusRange(const float* q, std::size_t b, std::size_t e, float r2, bool, KnnBatch& out) override {
+  void radiusRange(const float* q, std::size_t b, std::size_t e, float r2, std::size_t,
+                   KnnBatch& out) override {
     pcl::Indices idx;
     std::vector<float> d2;
     const double r = std::sqrt(static_cast<double>(r2));

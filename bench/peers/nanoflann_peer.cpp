@@ -44,7 +44,8 @@ class NanoflannPeer : public NnMethod {
       out.dist2[i] = d2;
     }
   }
-  void knnRange(const float* q, std::size_t b, std::size_t e, std::size_t k, bool, KnnBatch& out) override {
+  void knnRange(const float* q, std::size_t b, std::size_t e, std::size_t k, std::size_t,
+                KnnBatch& out) override {
     std::vector<std::uint32_t> idx(k);
     std::vector<float> d2(k);
     for (std::size_t i = b; i < e; ++i) {
@@ -54,7 +55,8 @@ class NanoflannPeer : public NnMethod {
       store(out, i, idx.data(), d2.data(), rs.size());
     }
   }
-  void radiusRange(const float* q, std::size_t b, std::size_t e, float r2, bool, KnnBatch& out) override {
+  void radiusRange(const float* q, std::size_t b, std::size_t e, float r2, std::size_t,
+                   KnnBatch& out) override {
 #if NANOFLANN_VERSION >= 0x150
     std::vector<nf::ResultItem<std::uint32_t, float>> m;
     const nf::SearchParameters sp(0.f, false);

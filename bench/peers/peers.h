@@ -27,7 +27,7 @@ struct PeerIcpResult {
   Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();  ///< target ~ pose * source
   int iterations = 0;
   bool converged = false;
-  double seconds = 0;       ///< whole call, wall clock
+  double seconds = 0;       ///< whole call, process CPU time (one thread)
   double prep_seconds = 0;  ///< of it: trees and covariances
 };
 

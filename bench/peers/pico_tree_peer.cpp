@@ -33,7 +33,8 @@ class PicoTreePeer : public NnMethod {
       out.dist2[i] = nn.distance;
     }
   }
-  void knnRange(const float* q, std::size_t b, std::size_t e, std::size_t k, bool, KnnBatch& out) override {
+  void knnRange(const float* q, std::size_t b, std::size_t e, std::size_t k, std::size_t,
+                KnnBatch& out) override {
     std::vector<Tree::neighbor_type> nbrs;
     std::vector<int> idx(k);
     std::vector<float> d2(k);
@@ -43,7 +44,8 @@ class PicoTreePeer : public NnMethod {
       store(out, i, idx.data(), d2.data(), nbrs.size());
     }
   }
-  void radiusRange(const float* q, std::size_t b, std::size_t e, float r2, bool, KnnBatch& out) override {
+  void radiusRange(const float* q, std::size_t b, std::size_t e, float r2, std::size_t,
+                   KnnBatch& out) override {
     std::vector<Tree::neighbor_type> nbrs;
     for (std::size_t i = b; i < e; ++i) {
       tree_->search_radius(Point{q[3 * i], q[3 * i + 1], q[3 * i + 2]}, r2, nbrs, false);

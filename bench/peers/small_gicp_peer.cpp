@@ -40,7 +40,8 @@ class SmallGicpPeer : public NnMethod {
       out.dist2[i] = static_cast<float>(d2);
     }
   }
-  void knnRange(const float* q, std::size_t b, std::size_t e, std::size_t k, bool, KnnBatch& out) override {
+  void knnRange(const float* q, std::size_t b, std::size_t e, std::size_t k, std::size_t,
+                KnnBatch& out) override {
     std::vector<std::size_t> idx(k);
     std::vector<double> d2(k);
     for (std::size_t i = b; i < e; ++i) {
@@ -80,8 +81,7 @@ small_gicp::RegistrationResult alignWith(const small_gicp::PointCloud& target,
 
 PeerIcpResult smallGicpAlign(const std::vector<float>& source, const std::vector<float>& target, bool gicp,
                              double max_dist, int max_iterations) {
-  using Clock = std::chrono::steady_clock;
-  const auto t0 = Clock::now();
+  const double t0 = processCpuSeconds();
   auto tgt = toSmallGicp(target), src = toSmallGicp(source);
   auto tree = std::make_shared<small_gicp::KdTree<small_gicp::PointCloud>>(tgt);
   if (gicp) {
@@ -89,13 +89,13 @@ PeerIcpResult smallGicpAlign(const std::vector<float>& source, const std::vector
     small_gicp::estimate_covariances(*tgt, *tree, 10);
     small_gicp::estimate_covariances(*src, src_tree, 10);
   }
-  const auto t1 = Clock::now();
+  const double t1 = processCpuSeconds();
   const small_gicp::RegistrationResult r =
       gicp ? alignWith<small_gicp::GICPFactor>(*tgt, *src, *tree, max_dist, max_iterations)
            : alignWith<small_gicp::ICPFactor>(*tgt, *src, *tree, max_dist, max_iterations);
   PeerIcpResult out;
-  out.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-  out.prep_seconds = std::chrono::duration<double>(t1 - t0).count();
+  out.seconds = processCpuSeconds() - t0;
+  out.prep_seconds = t1 - t0;
   out.pose = r.T_target_source.matrix();
   out.iterations = static_cast<int>(r.iterations);
   out.converged = r.converged;
