@@ -18,6 +18,7 @@
 #include <memory>
 #include <sstream>
 
+#include "common/nn_methods.h"
 #include "common/query_replay.h"
 
 namespace {

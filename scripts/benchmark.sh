@@ -10,6 +10,16 @@
 #                                       acceptance run: about 3 CPU-hours (1.5-2 hours on 2 idle cores;
 #                                       tools/device/run_grid.sh ran it on 15 cores in two 6-minute calls)
 #   scripts/benchmark.sh --quick -- ARGS  extra arguments go to dw_bench (see build-bench/bench/dw_bench --help)
+#   scripts/benchmark.sh TABLE [-- ARGS]  one table of docs/benchmarks.md against the 2026 peers
+#                                       (bench/dw_peers.cpp, bench/dw_pcl_pipelines.cpp), CSV into
+#                                       bench/results/TABLE, figures and tables.md from them:
+#       peers-nn      exact 1-NN on ICP-like sequences, ICP order and shuffled, one thread
+#       peers-knn     self- and foreign kNN (k = 8, 16, 32) and radius, one thread
+#       peers-icp     point-to-point ICP scan-to-scan / scan-to-model, small_gicp ICP/GICP, stock PCL ICP
+#       peers-build   build time and peak memory of every structure
+#       peers-10M     exact 1-NN and build on the generated 10M-point scene (~2.5 GB, several minutes)
+#       pipelines     PCL's NormalEstimationOMP and EuclideanClusterExtraction, DelaunayWalk vs KdTree
+#     The 16-core thread scaling is tools/device/peers.sh (on the device machine).
 #
 # Environment: BUILD_DIR (default build-bench), OUT (default $BUILD_DIR/bench-results), JOBS (default 2:
 # build jobs, grid processes and the largest thread count), DW_DATA_DIR (the real data, default
@@ -18,12 +28,14 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 QUICK=0
+TABLE=
 EXTRA=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --quick) QUICK=1 ;;
+    peers-nn|peers-knn|peers-icp|peers-build|peers-10M|pipelines) TABLE=$1 ;;
     --) shift; EXTRA=("$@"); break ;;
-    -h|--help) sed -n 2,13p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,24p "$0"; exit 0 ;;
     *) echo "benchmark.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
@@ -34,6 +46,42 @@ OUT=${OUT:-$BUILD_DIR/bench-results}
 FIGURES=${FIGURES:-docs/figures}
 JOBS=${JOBS:-2}
 export CCACHE_BASEDIR="$PWD"
+
+if [ -n "$TABLE" ]; then
+  # One peer table: dw_peers / dw_pcl_pipelines, each comparison in one process, one thread.
+  PEER_BUILD=${BUILD_DIR}
+  RES=${OUT_TABLE:-bench/results/$TABLE}
+  export CCACHE_BASEDIR="$PWD"
+  cmake -S . -B "$PEER_BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release > "$PEER_BUILD.configure.log" 2>&1 ||
+    { cat "$PEER_BUILD.configure.log"; exit 1; }
+  rm -rf "$RES"
+  mkdir -p "$RES"
+  P="$PEER_BUILD/bench/dw_peers"
+  case "$TABLE" in
+    pipelines)
+      cmake --build "$PEER_BUILD" --target dw_pcl_pipelines -j "$JOBS"
+      OMP_NUM_THREADS=1 "$PEER_BUILD/bench/dw_pcl_pipelines" --datasets dragon-100k,kitti --threads 1,2 --repeats 1 \
+        --out "$RES" "${EXTRA[@]}" | tee "$RES/run.log" ;;
+    *)
+      cmake --build "$PEER_BUILD" --target dw_peers -j "$JOBS"
+      export OMP_NUM_THREADS=1  # PCL's FLANN would otherwise start OpenMP teams per query
+      run() { local sub=$1; shift; mkdir -p "$RES/$sub"; "$P" "$@" --out "$RES/$sub" "${EXTRA[@]}" | tee "$RES/$sub/run.log"; }
+      case "$TABLE" in
+        peers-nn)
+          run a --sections nn --datasets dragon-100k,kitti,fastgicp,autzen --iterations 10 --repeats 2
+          run b --sections nn --datasets dragon-437k,uniform-1M --iterations 3 --repeats 1 ;;
+        peers-knn)
+          for d in dragon-100k kitti autzen; do run "$d" --sections knn --datasets "$d" --knn-queries 30000 --repeats 2; done ;;
+        peers-icp) run a --sections icp --datasets kitti,fastgicp,dragon-100k --repeats 1 ;;
+        peers-build) run a --sections build --datasets dragon-100k,dragon-437k,kitti,fastgicp,autzen,uniform-1M --repeats 1 ;;
+        peers-10M) run a --sections build,nn --datasets scene-10M --iterations 3 --repeats 1 --orders icp ;;
+      esac
+      PYTHON=${PYTHON:-/usr/bin/python3}
+      "$PYTHON" scripts/plot_benchmarks.py --peers "$RES" --figures "$FIGURES" ;;
+  esac
+  echo "== done: CSV in $RES"
+  exit 0
+fi
 
 echo "== configuring and building ($BUILD_DIR)"
 cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release > "$BUILD_DIR.configure.log" 2>&1 ||

@@ -7,6 +7,12 @@ iterations (Fig. 14) and the ICP step breakdown (Figs. 1-2); plus per-query NN t
 Tables (markdown, for docs/benchmarks.md) go to <results>/tables.md.
 
 usage: plot_benchmarks.py RESULTS_DIR [--figures docs/figures]
+       plot_benchmarks.py --peers PEERS_DIR [--figures docs/figures]
+
+With --peers, PEERS_DIR holds dw_peers' CSV files (bench/dw_peers.cpp: build.csv, nn.csv, knn.csv,
+icp.csv, meta.csv, or folders of them, e.g. one per data set): the figures peers_*.png (per-query time
+against cloud size per method, thread scaling, kNN time against k, the ICP time breakdown, build time
+against n) and PEERS_DIR/tables.md.
 
 RESULTS_DIR holds dw_bench's CSV files, or folders of them (bench/run_grid.sh writes one folder per job:
 files of the same name are concatenated; where two rows measure the same thing, the one from the file
@@ -511,12 +517,248 @@ def scan2scan_section(res, figs, md):
         md.append("")
 
 
+# ---- dw_peers (bench/dw_peers.cpp): the 2026 peers side by side --------------------------------------
+
+def peers_read(res, name):
+    rows = []
+    for p in sorted(set(glob.glob(os.path.join(res, name))) | set(glob.glob(os.path.join(res, "**", name),
+                                                                            recursive=True))):
+        rows += read_one(p)
+    return rows
+
+
+def peers_style(method):
+    """Walks solid, trees dashed; one colour per method family."""
+    colours = {"walk-pnn-optimized": "C3", "walk-kd-ann": "C1", "walk-pnn-optimized-sorted-prefetch": "C5",
+               "pico_tree": "C0", "nanoflann-1.12": "C2", "nanoflann-1.4": "C8", "small_gicp": "C4",
+               "pcl-kdtree": "C7"}
+    c = next((colours[k] for k in sorted(colours, key=len, reverse=True) if method.startswith(k)), "C9")
+    return dict(color=c, linestyle="-" if method.startswith("walk-") else "--", marker="o")
+
+
+def peers_by_size(rows):
+    return sorted({(int(r["points"]), r["dataset"]) for r in rows})
+
+
+def peers_nn(res, figs, md):
+    rows = [r for r in peers_read(res, "nn.csv")]
+    if not rows:
+        return
+    sets = peers_by_size(rows)
+    for order in ("icp", "shuffled"):
+        one = [r for r in rows if r["order"] == order and r["threads"] == "1"]
+        methods = sorted({r["method"] for r in one}, key=lambda m: (not m.startswith("walk-"), m))
+        ns = {(r["dataset"], r["method"]): float(r["cpu_ns_per_query"]) for r in one}
+        wrong = sum(int(r["wrong"]) for r in one)
+        md.append(f"### Exact 1-NN, ICP-like sequence, queries in {'ICP' if order == 'icp' else 'shuffled'} order, "
+                  f"one thread (CPU ns/query; wrong answers: {wrong})\n")
+        hdr = ["data set (points)"] + methods + ["fastest peer / default walk", "/ estimator order"]
+        body = []
+        for n, d in sets:
+            peers = [ns[(d, m)] for m in methods if not m.startswith("walk-") and (d, m) in ns]
+            ratios = []
+            for w in ("walk-pnn-optimized", "walk-pnn-optimized-sorted-prefetch"):
+                walk = ns.get((d, w))
+                ratios.append(f"**{min(peers) / walk:.2f}×**" if peers and walk else "–")
+            if not peers and not any((d, m) in ns for m in methods):
+                continue
+            body.append([f"{d} ({n:,})"] + [f"{ns[(d, m)]:.0f}" if (d, m) in ns else "–" for m in methods] + ratios)
+        md.append(table(hdr, body))
+        md.append("")
+        if order == "icp":
+            fig, ax = plt.subplots(figsize=(7, 4.5))
+            for m in methods:
+                pts = [(n, ns[(d, m)]) for n, d in sets if (d, m) in ns]
+                if pts:
+                    ax.plot(*zip(*pts), label=m, **peers_style(m))
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            ax.set_xlabel("reference points")
+            ax.set_ylabel("ns per query (CPU, one thread)")
+            ax.set_title("Exact 1-NN on ICP-like query sequences")
+            for n, d in sets:
+                ax.annotate(d, (n, ax.get_ylim()[0]), fontsize=6, rotation=90, va="bottom")
+            ax.legend(fontsize=7)
+            fig.tight_layout()
+            fig.savefig(os.path.join(figs, "peers_nn_per_query.png"), dpi=110)
+            plt.close(fig)
+    multi = [r for r in rows if r["order"] == "icp"]
+    threads = sorted({int(r["threads"]) for r in multi})
+    if len(threads) > 1:
+        sets_t = sorted({r["dataset"] for r in multi})
+        fig, axes = plt.subplots(1, len(sets_t), figsize=(4 * len(sets_t), 3.8), squeeze=False)
+        md.append("### Thread scaling, ICP order (wall ns/query)\n")
+        for ax, d in zip(axes[0], sets_t):
+            methods = sorted({r["method"] for r in multi if r["dataset"] == d})
+            for m in methods:
+                pts = sorted((int(r["threads"]), float(r["ns_per_query"])) for r in multi
+                             if r["dataset"] == d and r["method"] == m)
+                ax.plot(*zip(*pts), label=m, **peers_style(m))
+                md.append(f"- {d}, {m}: " + ", ".join(f"{t}: {v:.0f}" for t, v in pts))
+            ax.set_xscale("log", base=2)
+            ax.set_yscale("log")
+            ax.set_title(d)
+            ax.set_xlabel("threads")
+        axes[0][0].set_ylabel("ns per query (wall)")
+        axes[0][0].legend(fontsize=6)
+        fig.tight_layout()
+        fig.savefig(os.path.join(figs, "peers_thread_scaling.png"), dpi=110)
+        plt.close(fig)
+        md.append("")
+
+
+def peers_knn(res, figs, md):
+    rows = [r for r in peers_read(res, "knn.csv") if r["threads"] == "1"]
+    if not rows:
+        return
+    sets = [d for _, d in peers_by_size(rows)]
+    methods = sorted({r["method"] for r in rows}, key=lambda m: (not m.startswith("walk-"), m))
+    cols = []
+    for r in rows:
+        c = (r["query"], r["kind"], int(r["k"]))
+        if c not in cols:
+            cols.append(c)
+    label = lambda c: f"{c[0]} {'k=' + str(c[2]) if c[1] == 'knn' else 'radius'}"
+    ns = {(r["dataset"], r["method"], r["query"], r["kind"], int(r["k"])): float(r["cpu_ns_per_query"]) for r in rows}
+    differ = sum(int(r["differ"]) for r in rows)
+    md.append(f"### kNN and radius, one thread (CPU ns/query; answers differing from the reference: {differ})\n")
+    body = []
+    for d in sets:
+        for m in methods:
+            if not any((d, m) + c in ns for c in cols):
+                continue
+            cells = []
+            for c in cols:
+                v = ns.get((d, m) + c)
+                peers = [ns[(d, p) + c] for p in methods if not p.startswith("walk-") and (d, p) + c in ns]
+                cells.append("–" if v is None else (f"{v:.0f} ({min(peers) / v:.2f}×)" if peers else f"{v:.0f}"))
+            body.append([d, m] + cells)
+    md.append(table(["data set", "method"] + [label(c) for c in cols], body))
+    md.append("\n(in brackets: the fastest peer's time over this method's; > 1 means faster than every peer)\n")
+    fig, axes = plt.subplots(1, len(sets), figsize=(4 * len(sets), 3.8), squeeze=False)
+    for ax, d in zip(axes[0], sets):
+        for m in methods:
+            pts = sorted((c[2], ns[(d, m) + c]) for c in cols if c[0] == "self" and c[1] == "knn" and (d, m) + c in ns)
+            if pts:
+                ax.plot(*zip(*pts), label=m, **peers_style(m))
+        ax.set_title(d)
+        ax.set_xlabel("k (self-queries)")
+        ax.set_yscale("log")
+    axes[0][0].set_ylabel("ns per query (CPU, one thread)")
+    axes[0][0].legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(os.path.join(figs, "peers_knn_vs_k.png"), dpi=110)
+    plt.close(fig)
+
+
+def peers_icp(res, figs, md):
+    rows = peers_read(res, "icp.csv")
+    if not rows:
+        return
+    sets = [d for _, d in peers_by_size(rows)]
+    md.append("### ICP align(), point-to-point, one thread (CPU ms)\n")
+    body = []
+    for d in sets:
+        rs = [r for r in rows if r["dataset"] == d]
+        trees = [r for r in rs if r["version"] != "own registration" and not r["method"].startswith("walk-")]
+        best_s2s = min((float(r["scan2scan_cpu_seconds"]) for r in trees), default=None)
+        best_s2m = min((float(r["scan2model_cpu_seconds"]) for r in trees), default=None)
+        for r in rs:
+            own = r["version"] == "own registration"
+            s2s, s2m = float(r["scan2scan_cpu_seconds"]), float(r["scan2model_cpu_seconds"])
+            body.append([d, r["method"], r["iterations"] if int(r["iterations"]) >= 0 else "?",
+                         f"{s2s * 1e3:.1f}" + ("" if own or not best_s2s else f" ({best_s2s / s2s:.2f}×)"),
+                         "–" if own else f"{s2m * 1e3:.1f}" + (f" ({best_s2m / s2m:.2f}×)" if best_s2m else ""),
+                         f"{float(r['rot_diff_deg']):.2g}° / {float(r['trans_diff']):.2g}"])
+    md.append(table(["data set", "method", "iterations", "scan-to-scan (build inside)", "scan-to-model (build excluded)",
+                     "pose vs the walk's (° / m)"], body))
+    md.append("\n(own registrations: small_gicp's ICP/GICP and stock PCL ICP time their whole call; in brackets: "
+              "the fastest peer tree's time over this method's in the same ICP loop)\n")
+    fig, axes = plt.subplots(1, len(sets), figsize=(4.5 * len(sets), 4), squeeze=False)
+    for ax, d in zip(axes[0], sets):
+        rs = [r for r in rows if r["dataset"] == d and r["version"] != "own registration"]
+        names = [r["method"] for r in rs]
+        build = [float(r["build_cpu_seconds"]) * 1e3 for r in rs]
+        nn = [float(r["nn_seconds"]) * 1e3 for r in rs]
+        rest = [float(r["solve_seconds"]) * 1e3 for r in rs]
+        x = range(len(rs))
+        ax.bar(x, build, label="build", color="C7")
+        ax.bar(x, nn, bottom=build, label="NN", color="C3")
+        ax.bar(x, rest, bottom=[a + b for a, b in zip(build, nn)], label="SVD + transform", color="C0")
+        ax.set_xticks(list(x))
+        ax.set_xticklabels(names, rotation=60, ha="right", fontsize=6)
+        ax.set_title(d)
+    axes[0][0].set_ylabel("CPU ms per align()")
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(os.path.join(figs, "peers_icp_breakdown.png"), dpi=110)
+    plt.close(fig)
+
+
+def peers_build(res, figs, md):
+    rows = peers_read(res, "build.csv")
+    if not rows:
+        return
+    sets = peers_by_size(rows)
+    methods = sorted({r["method"] for r in rows}, key=lambda m: (not m.startswith("walk-"), m))
+    by = {(r["dataset"], r["method"]): r for r in rows}
+    md.append("### Build time (CPU, one thread) and peak memory (bytes per point)\n")
+    body = []
+    for n, d in sets:
+        cells = []
+        for m in methods:
+            r = by.get((d, m))
+            if not r:
+                cells.append("–")
+                continue
+            peak = int(r["peak_bytes"])
+            cells.append(fmt_time(float(r["cpu_seconds"])) + (f" / {peak / n:.0f} B" if peak >= 0 else ""))
+        body.append([f"{d} ({n:,})"] + cells)
+    md.append(table(["data set"] + methods, body))
+    md.append("")
+    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    for m in methods:
+        pts = [(n, float(by[(d, m)]["cpu_seconds"])) for n, d in sets if (d, m) in by]
+        if pts:
+            ax.plot(*zip(*pts), label=m, **peers_style(m))
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("points")
+    ax.set_ylabel("build CPU seconds (one thread)")
+    ax.set_title("Build time against n")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(os.path.join(figs, "peers_build_vs_n.png"), dpi=110)
+    plt.close(fig)
+
+
+def peers_main(res, figs):
+    md = []
+    meta = peers_read(res, "meta.csv")
+    cpu = next((r["value"] for r in meta if r["key"] == "cpu"), "?")
+    hw = next((r["value"] for r in meta if r["key"] == "hardware_threads"), "?")
+    peers = sorted({r["value"] for r in meta if r["key"] == "peer"})
+    md.append(f"Machine: {cpu}, {hw} hardware threads; peers: {', '.join(peers)}.\n")
+    for f in (peers_nn, peers_knn, peers_icp, peers_build):
+        f(res, figs, md)
+    with open(os.path.join(res, "tables.md"), "w") as f:
+        f.write("\n".join(md) + "\n")
+    print("\n".join(md))
+    print(f"figures in {figs}, tables in {os.path.join(res, 'tables.md')}", file=sys.stderr)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("results")
+    ap.add_argument("results", nargs="?")
     ap.add_argument("--figures", default="docs/figures")
+    ap.add_argument("--peers", metavar="PEERS_DIR", help="dw_peers' CSV folder (bench/dw_peers.cpp)")
     a = ap.parse_args()
-    if not os.path.isdir(a.results):
+    if a.peers:
+        if not os.path.isdir(a.peers):
+            sys.exit(f"plot_benchmarks.py: no dw_peers results folder '{a.peers}'")
+        os.makedirs(a.figures, exist_ok=True)
+        return peers_main(a.peers, a.figures)
+    if not a.results or not os.path.isdir(a.results):
         sys.exit(f"plot_benchmarks.py: no results folder '{a.results}'")
     os.makedirs(a.figures, exist_ok=True)
     md = []

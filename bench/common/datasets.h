@@ -16,6 +16,7 @@
 
 #include "pcl_delaunay_walk/core/graph/types.h"
 #include "pcl_delaunay_walk/core/util/point_file.h"
+#include "point_files.h"
 
 namespace dwb {
 
@@ -33,96 +34,6 @@ struct Dataset {
 inline std::vector<std::string> knownDatasets() {
   return {"teapot-792", "dragon-5k", "bunny-8k",    "dragon-23k",
           "bunny-36k",  "lidar-69k", "dragon-100k", "dragon-437k"};
-}
-
-inline bool fileExists(const std::string& p) {
-  struct stat st;
-  return ::stat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode);
-}
-
-/// Finds a real cloud: in $DW_DATA_DIR, else the shared data, else the repository's data/ (which holds
-/// a subset). Each candidate is tried for the file itself.
-inline std::string findDataFile(const std::string& subdir, const std::string& file) {
-  std::vector<std::string> cands;
-  if (const char* env = std::getenv("DW_DATA_DIR")) {
-    cands.push_back(std::string(env) + "/" + subdir + "/" + file);
-    cands.push_back(std::string(env) + "/" + file);
-  }
-#ifdef DW_SHARED_DATA_DIR
-  cands.push_back(std::string(DW_SHARED_DATA_DIR) + "/" + subdir + "/" + file);
-#endif
-#ifdef DW_TEST_DATA_DIR
-  cands.push_back(std::string(DW_TEST_DATA_DIR) + "/" + file);
-#endif
-  // Targets without those definitions (bench/dw_bench): the checkout this header lives in.
-  std::string root = __FILE__;
-  for (int up = 0; up < 3; ++up)
-    root = root.substr(0, root.find_last_of('/') == std::string::npos ? 0 : root.find_last_of('/'));
-  if (!root.empty()) {
-    cands.push_back(root + "/../shared/data/" + subdir + "/" + file);
-    cands.push_back(root + "/data/" + file);
-  }
-  // __FILE__ is relative when ccache's base_dir rewrote the compile line; the build folder usually
-  // sits in the checkout (<repo>/build-x/bench/dw_bench), so look beside the running executable too.
-  char exe_buf[4096];
-  const ssize_t exe_len = ::readlink("/proc/self/exe", exe_buf, sizeof exe_buf - 1);
-  if (exe_len > 0) {
-    std::string dir(exe_buf, static_cast<std::size_t>(exe_len));
-    for (int up = 0; up < 3 && dir.find_last_of('/') != std::string::npos; ++up) {
-      dir = dir.substr(0, dir.find_last_of('/'));
-      if (up >= 1) {
-        cands.push_back(dir + "/../shared/data/" + subdir + "/" + file);
-        cands.push_back(dir + "/data/" + file);
-      }
-    }
-  }
-  for (const auto& c : cands)
-    if (fileExists(c)) return c;
-  std::string msg = "dw_bench: data file '" + file + "' not found; looked in:";
-  for (const auto& c : cands) msg += " " + c;
-  throw dw::Error(msg + " (set DW_DATA_DIR to the shared data folder)");
-}
-
-/// Where unpacked data goes: $DW_BENCH_CACHE, else <build dir>/bench-data (the build dir is the parent
-/// of the running executable's folder: build/bench/dw_bench, build/bench/bench_search).
-inline std::string cacheDir() {
-  std::string dir;
-  if (const char* env = std::getenv("DW_BENCH_CACHE")) {
-    dir = env;
-  } else {
-    char buf[4096];
-    const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
-    std::string exe = n > 0 ? std::string(buf, static_cast<std::size_t>(n)) : std::string("./x");
-    for (int up = 0; up < 2; ++up) {
-      const auto slash = exe.find_last_of('/');
-      exe = slash == std::string::npos ? std::string(".") : exe.substr(0, slash);
-    }
-    dir = exe + "/bench-data";
-  }
-  ::mkdir(dir.c_str(), 0755);
-  return dir;
-}
-
-/// Gunzips `gz` into the cache once (by name) and returns the unpacked path. Uses the system gzip:
-/// the benchmark needs it for two files only, which is not worth a zlib dependency.
-inline std::string gunzipToCache(const std::string& gz) {
-  std::string base = gz.substr(gz.find_last_of('/') + 1);
-  base = base.substr(0, base.size() - 3);
-  const std::string out = cacheDir() + "/" + base;
-  if (fileExists(out)) return out;
-  const std::string tmp = out + ".part" + std::to_string(::getpid());
-  const std::string cmd = "gzip -dc '" + gz + "' > '" + tmp + "'";
-  if (std::system(cmd.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw dw::Error("dw_bench: could not gunzip '" + gz + "' (is gzip installed?)");
-  }
-  if (std::rename(tmp.c_str(), out.c_str()) != 0) throw dw::Error("dw_bench: cannot write '" + out + "'");
-  return out;
-}
-
-inline void appendFinite(std::vector<float>& xyz, double x, double y, double z) {
-  if (std::isfinite(x) && std::isfinite(y) && std::isfinite(z))
-    xyz.insert(xyz.end(), {static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)});
 }
 
 /// The finite points of a file as floats: PCD through PCL, PLY and KITTI .bin through the core reader.

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Run HERE (the development machine), once per checkout, before using the device machine: fills the
 # git-ignored folder .deps/ with what the device lacks: Qhull (headers, the reentrant library and a
-# minimal CMake package), nanoflann's header, and the real clouds the GPU tests and benchmark read.
+# minimal CMake package), nanoflann's header, the real clouds the GPU tests and benchmarks read, and
+# the benchmark-only peers' headers (nanoflann 1.12, pico_tree, small_gicp) for tools/device/peers.sh.
 # The device call then names .deps in `carry` and runs tools/device/run.sh.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
@@ -35,4 +36,18 @@ done
 for f in fastgicp_251370668.pcd fastgicp_251371071.pcd fastgicp_relative.txt kitti_000000.bin kitti_000001.bin; do
   cp "$DATA/scans/$f" "$DEPS/data/scans/"
 done
+mkdir -p "$DEPS/data/airborne"
+cp "$DATA/airborne/autzen_trim.las" "$DEPS/data/airborne/"
+# The benchmark-only peers of tools/device/peers.sh (headers only, with their licences).
+PEERS=${DW_PEERS_DIR:-$ROOT/../shared/peers}
+if [ -d "$PEERS" ]; then
+  mkdir -p "$DEPS/peers/nanoflann" "$DEPS/peers/pico_tree/src" "$DEPS/peers/small_gicp"
+  cp -r "$PEERS/nanoflann/include" "$PEERS/nanoflann/COPYING" "$DEPS/peers/nanoflann/"
+  cp -r "$PEERS/pico_tree/src/pico_tree" "$DEPS/peers/pico_tree/src/"
+  cp "$PEERS/pico_tree/COPYING.txt" "$DEPS/peers/pico_tree/"
+  cp -r "$PEERS/small_gicp/include" "$PEERS/small_gicp/LICENSE" "$DEPS/peers/small_gicp/"
+  cp "$PEERS/README.md" "$DEPS/peers/"
+else
+  echo "prepare.sh: no peers at $PEERS: tools/device/peers.sh will run without them"
+fi
 du -sh "$DEPS"
