@@ -137,6 +137,9 @@ class CorrespondenceEstimationDelaunayWalk
   /** \brief The forward nearest-neighbour pass shared by both public methods. */
   void searchAll(double max_distance, bool reciprocal, pcl::Correspondences& correspondences);
 
+  /** \brief The same through the walk's internal k-d tree (its KdTreeFallback route). */
+  void searchAllByTree(double max_distance, bool reciprocal, pcl::Correspondences& correspondences);
+
   WalkSearchPtr walk_;
   dw::StartStrategy strategy_ = dw::StartStrategy::PnnOptimized;
   unsigned int nr_threads_ = 0;

@@ -44,26 +44,37 @@ bool CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::ini
     return false;
   }
   // Registration hands us its target tree every align(); if it is a walk tree, use its graph.
+  // The point representation is the one the stock estimator's queries would see: its tree's, which
+  // setPointRepresentation on this estimator (or on the Registration) has been given.
+  const auto walk_tree = std::dynamic_pointer_cast<pcl::search::KdTreeDelaunayWalk<PointTarget>>(tree_);
   bool tree_owns_target = false;
-  if (auto walk_tree = std::dynamic_pointer_cast<pcl::search::KdTreeDelaunayWalk<PointTarget>>(tree_)) {
+  if (walk_tree) {
     if (walk_tree->getDelaunayWalk() != walk_) walk_ = walk_tree->getDelaunayWalk();
     // With force_no_recompute the user has set the tree's cloud and asked us to leave it alone.
-    tree_owns_target = force_no_recompute_ && walk_->getCallerMetricSearch();
+    tree_owns_target = force_no_recompute_ && walk_->getInputCloud();
   }
-  if (target_cloud_updated_ && !tree_owns_target) {
+  const auto representation = tree_ ? tree_->getPointRepresentation() : this->point_representation_;
+  if ((target_cloud_updated_ && !tree_owns_target) || !walk_->getInputCloud()) {
     // Content-checked: an unchanged target keeps its graph, so this is one comparison per align().
-    walk_->setInputCloud(target_, target_indices_);
+    if (walk_tree)
+      walk_tree->setInputCloud(target_, target_indices_);
+    else
+      walk_->setInputCloud(target_, target_indices_, representation);
   }
   target_cloud_updated_ = false;
-  if (!walk_->getCallerMetricSearch()) walk_->setInputCloud(target_, target_indices_);
   return PCLBase<PointSource>::initCompute();
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
 void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::searchAll(
     double max_distance, bool reciprocal, pcl::Correspondences& correspondences) {
+  if (walk_->getRepresentationRoute() == WalkSearch::RepresentationRoute::KdTreeFallback) {
+    searchAllByTree(max_distance, reciprocal, correspondences);
+    return;
+  }
   const auto t0 = std::chrono::steady_clock::now();
   const dw::CallerMetricSearch& wq = *walk_->getCallerMetricSearch();
+  const bool represented = walk_->getRepresentationRoute() == WalkSearch::RepresentationRoute::Represented;
   const std::size_t n = indices_->size();
   if (hint_source_ != input_.get() || hints_.size() != input_->size() || hint_graph_ != wq.id()) {
     hints_.assign(input_->size(), dw::kInvalidIndex);
@@ -97,6 +108,7 @@ void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::sea
     pcl::Indices index_r(1);
     std::vector<float> dist_r(1);
     PointSource as_source;
+    PointTarget as_target;
     constexpr std::size_t kAhead = 6;  // queries between a start-vertex prefetch and its walk
     for (std::size_t k = begin; k < end; ++k) {
       if (use_hints && k + kAhead < end) {
@@ -107,7 +119,11 @@ void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::sea
       const std::size_t i = use_hints ? order[k] : k;
       const auto idx = (*indices_)[i];
       const PointSource& p = (*input_)[idx];
-      const float q[3] = {p.x, p.y, p.z};
+      float q[3] = {p.x, p.y, p.z};
+      if (represented) {
+        copyPoint(p, as_target);  // what the stock estimator's tree vectorizes
+        walk_->graphCoordinates(as_target, q);
+      }
       if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !std::isfinite(q[2])) continue;
       dw::WalkNeighbour nb;
       dw::CallerMetricSearchStats qs;
@@ -141,6 +157,48 @@ void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::sea
     total.walk_steps += s.walk_steps;
     total.widened += s.widened;
   }
+  total.correspondences = correspondences.size();
+  total.nn_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  stats_.push_back(total);
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::searchAllByTree(
+    double max_distance, bool reciprocal, pcl::Correspondences& correspondences) {
+  // The walk's KdTreeFallback route (a representation of more than 3 dimensions): each query through
+  // the walk's public search, which its internal exact k-d tree answers; no hints.
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::size_t n = indices_->size();
+  const double max_dist_sqr = max_distance * max_distance;
+  found_.resize(n);
+  keep_.assign(n, 0);
+  const unsigned workers = dw::workerCount(n, nr_threads_);
+  std::vector<std::size_t> partial(workers, 0);
+  dw::parallelFor(n, workers, [&](std::size_t begin, std::size_t end, unsigned w) {
+    pcl::Indices index(1), index_r(1);
+    std::vector<float> dist(1), dist_r(1);
+    PointSource as_source;
+    PointTarget as_target;
+    for (std::size_t i = begin; i < end; ++i) {
+      const auto idx = (*indices_)[i];
+      copyPoint((*input_)[idx], as_target);
+      if (walk_->nearestKSearch(as_target, 1, index, dist) != 1) continue;
+      ++partial[w];
+      if (dist[0] > max_dist_sqr) continue;
+      if (reciprocal) {
+        copyPoint((*target_)[index[0]], as_source);
+        tree_reciprocal_->nearestKSearch(as_source, 1, index_r, dist_r);
+        if (dist_r[0] > max_dist_sqr || idx != index_r[0]) continue;
+      }
+      found_[i] = pcl::Correspondence(idx, index[0], dist[0]);
+      keep_[i] = 1;
+    }
+  });
+  correspondences.clear();
+  for (std::size_t i = 0; i < n; ++i)
+    if (keep_[i]) correspondences.push_back(found_[i]);
+  DelaunayWalkIterationStats total;
+  for (const std::size_t q : partial) total.queries += q;
   total.correspondences = correspondences.size();
   total.nn_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   stats_.push_back(total);
