@@ -105,9 +105,6 @@ void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::sea
 
   dw::parallelFor(n, workers, [&](std::size_t begin, std::size_t end, unsigned w) {
     DelaunayWalkIterationStats& st = partial[w];
-    pcl::Indices index_r(1);
-    std::vector<float> dist_r(1);
-    PointSource as_source;
     PointTarget as_target;
     constexpr std::size_t kAhead = 6;  // queries between a start-vertex prefetch and its walk
     for (std::size_t k = begin; k < end; ++k) {
@@ -132,18 +129,28 @@ void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::sea
       ++st.queries;
       st.walk_steps += qs.walk_steps;
       st.widened += qs.widened ? 1 : 0;
+      st.ties += qs.tied ? 1 : 0;
       new_hints[i] = qs.nn_vertex;
+      // Every tied target is at this distance, so the cut holds whichever one is kept.
       if (nb.sqr_distance > max_dist_sqr) continue;  // as the stock estimator: float vs double
-      if (reciprocal) {
-        copyPoint((*target_)[nb.index], as_source);
-        tree_reciprocal_->nearestKSearch(as_source, 1, index_r, dist_r);
-        if (dist_r[0] > max_dist_sqr || idx != index_r[0]) continue;
-      }
       found[i] = pcl::Correspondence(idx, nb.index, nb.sqr_distance);
+      if (qs.tied) {
+        keep[i] = 2;  // resolved after the loop (resolveTies)
+        continue;
+      }
+      if (reciprocal && !reciprocalHolds(idx, nb.index, max_dist_sqr)) continue;
       keep[i] = 1;
     }
   });
 
+  DelaunayWalkIterationStats total;
+  for (const auto& s : partial) {
+    total.queries += s.queries;
+    total.walk_steps += s.walk_steps;
+    total.widened += s.widened;
+    total.ties += s.ties;
+  }
+  if (total.ties > 0) resolveTies(max_dist_sqr, reciprocal);
   correspondences.clear();
   correspondences.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
@@ -151,15 +158,61 @@ void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::sea
     // Last write wins for a repeated source index, the same for any thread count.
     if (new_hints[i] != dw::kInvalidIndex) hints_[(*indices_)[i]] = new_hints[i];
   }
-  DelaunayWalkIterationStats total;
-  for (const auto& s : partial) {
-    total.queries += s.queries;
-    total.walk_steps += s.walk_steps;
-    total.widened += s.widened;
-  }
   total.correspondences = correspondences.size();
   total.nn_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   stats_.push_back(total);
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+bool CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::reciprocalHolds(
+    pcl::index_t idx, pcl::index_t match, double max_dist_sqr) const {
+  // As the stock estimator: the target point, as a source point, searched in the source tree.
+  PointSource as_source;
+  copyPoint((*target_)[match], as_source);
+  pcl::Indices index_r(1);
+  std::vector<float> dist_r(1);
+  tree_reciprocal_->nearestKSearch(as_source, 1, index_r, dist_r);
+  return !(dist_r[0] > max_dist_sqr) && idx == index_r[0];
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::resolveTies(
+    double max_dist_sqr, bool reciprocal) {
+  const std::size_t n = indices_->size();
+  std::vector<std::size_t> tied;
+  for (std::size_t i = 0; i < n; ++i)
+    if (keep_[i] == 2) tied.push_back(i);
+  const bool break_ties = tie_break_ == DelaunayWalkTieBreak::KdTreeOrder;
+  const std::uint64_t graph = walk_->getCallerMetricSearch()->id();
+  if (break_ties && (!tie_tree_ || tie_tree_graph_ != graph)) {
+    // The stock estimator's tree: a search::KdTree's KdTreeFLANN (sorted, epsilon 0) over the same
+    // target, indices and representation, so its traversal, and its pick among ties, are the same.
+    typename pcl::KdTreeFLANN<PointTarget>::Ptr tree(new pcl::KdTreeFLANN<PointTarget>(true));
+    if (walk_->getPointRepresentation()) tree->setPointRepresentation(walk_->getPointRepresentation());
+    tree->setInputCloud(target_, target_indices_);
+    tie_tree_ = tree;
+    tie_tree_graph_ = graph;
+  }
+  const std::size_t call = stats_.size();
+  std::vector<DelaunayWalkTie> resolved(tied.size());
+  dw::parallelFor(tied.size(), dw::workerCount(tied.size(), nr_threads_),
+                  [&](std::size_t begin, std::size_t end, unsigned) {
+                    pcl::Indices index(1);
+                    std::vector<float> dist(1);
+                    PointTarget as_target;
+                    for (std::size_t t = begin; t < end; ++t) {
+                      pcl::Correspondence& c = found_[tied[t]];
+                      resolved[t] = {call, c.index_query, c.index_match, c.index_match, c.distance};
+                      if (break_ties) {
+                        copyPoint((*input_)[c.index_query], as_target);
+                        // Only a pick at the same distance: the walk's answer is exact either way.
+                        if (tie_tree_->nearestKSearch(as_target, 1, index, dist) == 1 && dist[0] == c.distance)
+                          c.index_match = resolved[t].chosen = index[0];
+                      }
+                      keep_[tied[t]] = !reciprocal || reciprocalHolds(c.index_query, c.index_match, max_dist_sqr);
+                    }
+                  });
+  ties_.insert(ties_.end(), resolved.begin(), resolved.end());
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -175,9 +228,8 @@ void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::sea
   const unsigned workers = dw::workerCount(n, nr_threads_);
   std::vector<std::size_t> partial(workers, 0);
   dw::parallelFor(n, workers, [&](std::size_t begin, std::size_t end, unsigned w) {
-    pcl::Indices index(1), index_r(1);
-    std::vector<float> dist(1), dist_r(1);
-    PointSource as_source;
+    pcl::Indices index(1);
+    std::vector<float> dist(1);
     PointTarget as_target;
     for (std::size_t i = begin; i < end; ++i) {
       const auto idx = (*indices_)[i];
@@ -185,11 +237,7 @@ void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::sea
       if (walk_->nearestKSearch(as_target, 1, index, dist) != 1) continue;
       ++partial[w];
       if (dist[0] > max_dist_sqr) continue;
-      if (reciprocal) {
-        copyPoint((*target_)[index[0]], as_source);
-        tree_reciprocal_->nearestKSearch(as_source, 1, index_r, dist_r);
-        if (dist_r[0] > max_dist_sqr || idx != index_r[0]) continue;
-      }
+      if (reciprocal && !reciprocalHolds(idx, index[0], max_dist_sqr)) continue;
       found_[i] = pcl::Correspondence(idx, index[0], dist[0]);
       keep_[i] = 1;
     }
