@@ -272,8 +272,8 @@ class DelaunayWalk : public Search<PointT> {
                         const PointRepresentationConstPtr& representation);
   /** \brief The KdTreeFallback route's queries, with the walk's conventions for degenerate input. */
   int fallbackKnn(const PointT& point, int k, Indices& k_indices, std::vector<float>& k_sqr_distances) const;
-  int fallbackRadius(const PointT& point, double radius, Indices& k_indices, std::vector<float>& k_sqr_distances,
-                     unsigned int max_nn) const;
+  int fallbackRadius(const PointT& point, double radius, Indices& k_indices,
+                     std::vector<float>& k_sqr_distances, unsigned int max_nn) const;
   /** \brief The input point at position \a index (of the subset, if any), or null if out of range. */
   const PointT* fallbackPointAt(index_t index) const;
   /** \brief Whether the KdTreeFallback route answers, and has points to answer from. */

@@ -135,7 +135,8 @@ inline void expectSameAnswer(pcl::Indices got_i, std::vector<float> got_d, pcl::
   }
   for (std::size_t i = 0; i < got_i.size(); ++i) {
     ASSERT_EQ(got_d[i], ref_d[i]) << what << ": distance at rank " << i;
-    const bool tied = (i > 0 && ref_d[i - 1] == ref_d[i]) || (i + 1 < ref_d.size() && ref_d[i + 1] == ref_d[i]);
+    const bool tied =
+        (i > 0 && ref_d[i - 1] == ref_d[i]) || (i + 1 < ref_d.size() && ref_d[i + 1] == ref_d[i]);
     if (!tied) EXPECT_EQ(got_i[i], ref_i[i]) << what << ": index at rank " << i;
   }
   std::vector<int> s(got_i.begin(), got_i.end());
@@ -146,8 +147,9 @@ inline void expectSameAnswer(pcl::Indices got_i, std::vector<float> got_d, pcl::
 /// Queries: cloud points, points jittered near them, and random points in and around the bounds.
 inline std::vector<P> queriesNear(const Cloud& c, std::size_t n, unsigned seed) {
   P lo(1e30f, 1e30f, 1e30f), hi(-1e30f, -1e30f, -1e30f);
+  auto finite = [](const P& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); };
   for (const P& p : c) {
-    if (!std::isfinite(p.x)) continue;
+    if (!finite(p)) continue;
     lo.x = std::min(lo.x, p.x), lo.y = std::min(lo.y, p.y), lo.z = std::min(lo.z, p.z);
     hi.x = std::max(hi.x, p.x), hi.y = std::max(hi.y, p.y), hi.z = std::max(hi.z, p.z);
   }
@@ -158,12 +160,13 @@ inline std::vector<P> queriesNear(const Cloud& c, std::size_t n, unsigned seed) 
   std::vector<P> q;
   while (q.size() < n) {
     const P& p = c[pick(rng)];
-    if (!std::isfinite(p.x)) continue;
+    if (!finite(p)) continue;
     switch (q.size() % 3) {
       case 0: q.push_back(p); break;
       case 1: q.emplace_back(p.x + jitter(rng), p.y + jitter(rng), p.z + jitter(rng)); break;
       default:
-        q.emplace_back(lo.x + u(rng) * (hi.x - lo.x), lo.y + u(rng) * (hi.y - lo.y), lo.z + u(rng) * (hi.z - lo.z));
+        q.emplace_back(lo.x + u(rng) * (hi.x - lo.x), lo.y + u(rng) * (hi.y - lo.y),
+                       lo.z + u(rng) * (hi.z - lo.z));
     }
   }
   return q;

@@ -58,7 +58,8 @@ void expectSameAsFlann(pcl::search::Search<PointT>& s, const typename pcl::Point
       flann.nearestKSearch(q, k, fi, fd);
       bi.clear();
       bd.clear();
-      for (int r = 0; r < k && r < static_cast<int>(all.size()); ++r) bi.push_back(all[r].second), bd.push_back(all[r].first);
+      for (int r = 0; r < k && r < static_cast<int>(all.size()); ++r)
+        bi.push_back(all[r].second), bd.push_back(all[r].first);
       expectSameAnswer(gi, gd, fi, fd, true, what + " knn vs KdTreeFLANN, k=" + std::to_string(k));
       expectSameAnswer(gi, gd, bi, bd, true, what + " knn vs brute force, k=" + std::to_string(k));
     }
@@ -170,7 +171,8 @@ TEST_P(KdTreeCompat, RescaledAndOneDimensionalRepresentations) {
   rescaled->setRescaleValues(alpha);
   const std::vector<P> queries = queriesNear(*c, 40, 26);
   for (const pcl::PointRepresentation<P>::ConstPtr& rep :
-       {pcl::PointRepresentation<P>::ConstPtr(rescaled), pcl::PointRepresentation<P>::ConstPtr(new RepresentationZ<P>)}) {
+       {pcl::PointRepresentation<P>::ConstPtr(rescaled),
+        pcl::PointRepresentation<P>::ConstPtr(new RepresentationZ<P>)}) {
     auto s = makeSearch<P>(GetParam(), rep);
     s->setInputCloud(c);
     expectSameAsFlann<P>(*s, c, rep, queries,
@@ -212,7 +214,8 @@ TEST_P(KdTreeCompat, FourDimensionalRepresentationTakesTheExactFallback) {
   expectSameAsFlann<PI>(*s, c, rep, queries, backendName(GetParam()) + " 4-D");
   auto walk = std::dynamic_pointer_cast<pcl::search::DelaunayWalk<PI>>(s);
   if (!walk) walk = std::dynamic_pointer_cast<pcl::search::KdTreeDelaunayWalk<PI>>(s)->getDelaunayWalk();
-  EXPECT_EQ(walk->getRepresentationRoute(), pcl::search::DelaunayWalk<PI>::RepresentationRoute::KdTreeFallback);
+  EXPECT_EQ(walk->getRepresentationRoute(),
+            pcl::search::DelaunayWalk<PI>::RepresentationRoute::KdTreeFallback);
   EXPECT_TRUE(walk->getFallbackTree());
   EXPECT_FALSE(walk->getGraph());
   // The index forms and an unchanged re-set (no rebuild) work on the fallback as well.
@@ -245,6 +248,8 @@ TEST_P(KdTreeCompat, DefaultRepresentationKeepsTheXyzGraph) {
 
 INSTANTIATE_TEST_SUITE_P(Backends, KdTreeCompat,
                          ::testing::Values(Backend::DelaunayWalk, Backend::KdTreeDelaunayWalk),
-                         [](const ::testing::TestParamInfo<Backend>& info) { return backendName(info.param); });
+                         [](const ::testing::TestParamInfo<Backend>& info) {
+                           return backendName(info.param);
+                         });
 
 }  // namespace

@@ -94,8 +94,10 @@ TEST(RegistrationCompat, IterativeClosestPointBothRoutes) {
     installWalk<decltype(installed), P>(installed);
     const Outcome ref = alignOnce(stock, d.source, d.target, Matrix4::Identity());
     const std::string what = "max distance " + std::to_string(max_distance);
-    expectSameTrajectory(ref, alignOnce(installed, d.source, d.target, Matrix4::Identity()), what + " installed");
-    expectSameTrajectory(ref, alignOnce(subclass, d.source, d.target, Matrix4::Identity()), what + " subclass");
+    expectSameTrajectory(ref, alignOnce(installed, d.source, d.target, Matrix4::Identity()),
+                         what + " installed");
+    expectSameTrajectory(ref, alignOnce(subclass, d.source, d.target, Matrix4::Identity()),
+                         what + " subclass");
     // A second align() from a guess, as test_registration does: the graph is kept, the path the same.
     Matrix4 guess = Matrix4::Identity();
     guess.block<3, 1>(0, 3) << 0.01f, -0.005f, 0.002f;
@@ -121,7 +123,8 @@ TEST(RegistrationCompat, CorrespondenceEstimatorsAgreeForwardAndReciprocal) {
   BunnyPair d;
   pcl::registration::CorrespondenceEstimation<P, P> stock;
   pcl::registration::CorrespondenceEstimationDelaunayWalk<P, P> walk;
-  for (auto* ce : std::initializer_list<pcl::registration::CorrespondenceEstimationBase<P, P>*>{&stock, &walk}) {
+  for (auto* ce :
+       std::initializer_list<pcl::registration::CorrespondenceEstimationBase<P, P>*>{&stock, &walk}) {
     ce->setInputSource(d.source);
     ce->setInputTarget(d.target);
   }
@@ -174,7 +177,8 @@ pcl::PointCloud<PN>::Ptr withNormals(const Cloud::Ptr& c) {
   ne.setKSearch(15);
   pcl::PointCloud<PN>::Ptr out(new pcl::PointCloud<PN>);
   ne.compute(*out);
-  for (std::size_t i = 0; i < c->size(); ++i) (*out)[i].x = (*c)[i].x, (*out)[i].y = (*c)[i].y, (*out)[i].z = (*c)[i].z;
+  for (std::size_t i = 0; i < c->size(); ++i)
+    (*out)[i].x = (*c)[i].x, (*out)[i].y = (*c)[i].y, (*out)[i].z = (*c)[i].z;
   return out;
 }
 
@@ -219,7 +223,8 @@ TEST(RegistrationCompat, PointRepresentationTwoDimensions) {
   pcl::PointRepresentation<P>::ConstPtr rep(new RepresentationXY);
   Exposed<pcl::IterativeClosestPoint<P, P>> stock, installed;
   Exposed<pcl::IterativeClosestPointDelaunayWalk<P, P>> subclass, through_base;
-  for (auto* icp : std::initializer_list<pcl::IterativeClosestPoint<P, P>*>{&stock, &installed, &through_base})
+  for (auto* icp :
+       std::initializer_list<pcl::IterativeClosestPoint<P, P>*>{&stock, &installed, &through_base})
     configurePcl(*icp), icp->setPointRepresentation(rep);  // the Registration method
   configurePcl(subclass);
   subclass.setPointRepresentation(rep);  // the subclass's: one graph build
@@ -264,7 +269,8 @@ TEST(RegistrationCompat, FitnessScoreWithRangeEqualsStock) {
 TEST(RegistrationCompat, RandomCloudsUnderAKnownMotion) {
   // A random target and the same points moved by a small rigid motion, plus noise.
   auto target = randomCloud(3000, 41);
-  Eigen::Affine3f motion = Eigen::Translation3f(0.03f, -0.02f, 0.01f) * Eigen::AngleAxisf(0.05f, Eigen::Vector3f::UnitZ());
+  Eigen::Affine3f motion =
+      Eigen::Translation3f(0.03f, -0.02f, 0.01f) * Eigen::AngleAxisf(0.05f, Eigen::Vector3f::UnitZ());
   Cloud::Ptr source(new Cloud);
   pcl::transformPointCloud(*target, *source, motion);
   std::mt19937 rng(42);

@@ -222,6 +222,8 @@ TEST_P(SearchCompat, DegenerateArgumentsGiveNothing) {
 
 INSTANTIATE_TEST_SUITE_P(Backends, SearchCompat,
                          ::testing::Values(Backend::DelaunayWalk, Backend::KdTreeDelaunayWalk),
-                         [](const ::testing::TestParamInfo<Backend>& info) { return backendName(info.param); });
+                         [](const ::testing::TestParamInfo<Backend>& info) {
+                           return backendName(info.param);
+                         });
 
 }  // namespace

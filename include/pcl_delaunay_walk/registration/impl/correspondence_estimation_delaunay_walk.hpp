@@ -176,8 +176,8 @@ bool CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::rec
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
-void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::resolveTies(
-    double max_dist_sqr, bool reciprocal) {
+void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::resolveTies(double max_dist_sqr,
+                                                                                         bool reciprocal) {
   const std::size_t n = indices_->size();
   std::vector<std::size_t> tied;
   for (std::size_t i = 0; i < n; ++i)
@@ -195,23 +195,24 @@ void CorrespondenceEstimationDelaunayWalk<PointSource, PointTarget, Scalar>::res
   }
   const std::size_t call = stats_.size();
   std::vector<DelaunayWalkTie> resolved(tied.size());
-  dw::parallelFor(tied.size(), dw::workerCount(tied.size(), nr_threads_),
-                  [&](std::size_t begin, std::size_t end, unsigned) {
-                    pcl::Indices index(1);
-                    std::vector<float> dist(1);
-                    PointTarget as_target;
-                    for (std::size_t t = begin; t < end; ++t) {
-                      pcl::Correspondence& c = found_[tied[t]];
-                      resolved[t] = {call, c.index_query, c.index_match, c.index_match, c.distance};
-                      if (break_ties) {
-                        copyPoint((*input_)[c.index_query], as_target);
-                        // Only a pick at the same distance: the walk's answer is exact either way.
-                        if (tie_tree_->nearestKSearch(as_target, 1, index, dist) == 1 && dist[0] == c.distance)
-                          c.index_match = resolved[t].chosen = index[0];
-                      }
-                      keep_[tied[t]] = !reciprocal || reciprocalHolds(c.index_query, c.index_match, max_dist_sqr);
-                    }
-                  });
+  dw::parallelFor(
+      tied.size(), dw::workerCount(tied.size(), nr_threads_),
+      [&](std::size_t begin, std::size_t end, unsigned) {
+        pcl::Indices index(1);
+        std::vector<float> dist(1);
+        PointTarget as_target;
+        for (std::size_t t = begin; t < end; ++t) {
+          pcl::Correspondence& c = found_[tied[t]];
+          resolved[t] = {call, c.index_query, c.index_match, c.index_match, c.distance};
+          if (break_ties) {
+            copyPoint((*input_)[c.index_query], as_target);
+            // Only a pick at the same distance: the walk's answer is exact either way.
+            if (tie_tree_->nearestKSearch(as_target, 1, index, dist) == 1 && dist[0] == c.distance)
+              c.index_match = resolved[t].chosen = index[0];
+          }
+          keep_[tied[t]] = !reciprocal || reciprocalHolds(c.index_query, c.index_match, max_dist_sqr);
+        }
+      });
   ties_.insert(ties_.end(), resolved.begin(), resolved.end());
 }
 

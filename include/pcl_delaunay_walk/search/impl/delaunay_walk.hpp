@@ -106,8 +106,8 @@ void DelaunayWalk<PointT>::setInputCloud(const PointCloudConstPtr& cloud, const 
   }
   std::vector<float> xyz;
   std::vector<std::int32_t> map;
-  detail::gatherXyz(*cloud, indices.get(),
-                    route == RepresentationRoute::Xyz ? nullptr : representation.get(), xyz, map);
+  detail::gatherXyz(*cloud, indices.get(), route == RepresentationRoute::Xyz ? nullptr : representation.get(),
+                    xyz, map);
   const auto t0 = std::chrono::steady_clock::now();
   dw::CallerMetricSearch::ConstPtr q;
   if (pending_graph_) {
@@ -148,8 +148,9 @@ void DelaunayWalk<PointT>::setFallbackInput(const PointCloudConstPtr& cloud, con
                                             const PointRepresentationConstPtr& representation) {
   const int dims = representation->getNumberOfDimensions();
   if (pending_graph_)
-    throw dw::Error("pcl::search::DelaunayWalk: a prebuilt graph cannot answer for a point representation of " +
-                    std::to_string(dims) + " dimensions (the walk searches at most 3)");
+    throw dw::Error(
+        "pcl::search::DelaunayWalk: a prebuilt graph cannot answer for a point representation of " +
+        std::to_string(dims) + " dimensions (the walk searches at most 3)");
   if (indices) detail::checkIndices(*cloud, *indices);
   // The represented vectors decide whether the tree can be kept, as the coordinates do for a graph.
   const std::size_t n = indices ? indices->size() : cloud->size();
@@ -167,8 +168,9 @@ void DelaunayWalk<PointT>::setFallbackInput(const PointCloudConstPtr& cloud, con
     for (const auto idx : *indices) content.push_back(static_cast<float>(idx));
   const auto t0 = std::chrono::steady_clock::now();
   typename FallbackTree::ConstPtr tree = fallback_;
-  const bool reused = tree && fallback_content_.size() == content.size() &&
-                      std::memcmp(fallback_content_.data(), content.data(), content.size() * sizeof(float)) == 0;
+  const bool reused =
+      tree && fallback_content_.size() == content.size() &&
+      std::memcmp(fallback_content_.data(), content.data(), content.size() * sizeof(float)) == 0;
   if (!reused) {
     auto built = pcl::make_shared<FallbackTree>(true);
     built->setEpsilon(0.f);  // exact, whatever epsilon the caller gave a KdTree
@@ -178,10 +180,11 @@ void DelaunayWalk<PointT>::setFallbackInput(const PointCloudConstPtr& cloud, con
     ++num_builds_;
   }
   if (!fallback_warned_) {
-    PCL_WARN("[pcl::search::DelaunayWalk] the point representation has %d dimensions and the Delaunay walk "
-             "searches at most 3; queries are answered exactly by an internal pcl::KdTreeFLANN with the "
-             "same representation instead.\n",
-             dims);
+    PCL_WARN(
+        "[pcl::search::DelaunayWalk] the point representation has %d dimensions and the Delaunay walk "
+        "searches at most 3; queries are answered exactly by an internal pcl::KdTreeFLANN with the "
+        "same representation instead.\n",
+        dims);
     fallback_warned_ = true;
   }
   last_build_seconds_ =
@@ -337,7 +340,8 @@ const PointT* DelaunayWalk<PointT>::fallbackPointAt(index_t index) const {
   if (!fallback_) query();
   const std::size_t n = indices_ ? indices_->size() : input_->size();
   if (index < 0 || static_cast<std::size_t>(index) >= n) return nullptr;
-  return &(*input_)[indices_ ? static_cast<std::size_t>((*indices_)[index]) : static_cast<std::size_t>(index)];
+  return &(
+      *input_)[indices_ ? static_cast<std::size_t>((*indices_)[index]) : static_cast<std::size_t>(index)];
 }
 
 template <typename PointT>
