@@ -4,7 +4,8 @@
 //
 //   dw_icp source target [--max-iterations N] [--max-distance D] [--epsilon E] [--fitness-epsilon E]
 //          [--voxel L] [--rotate R P Y] [--translate X Y Z] [--strategy zero|kd-ann|pnn|pnn-optimized]
-//          [--threads N] [--graph target.graph] [--save-graph out.graph] [--reciprocal] [--compare]
+//          [--threads N] [--graph target.graph] [--save-graph out.graph] [--reciprocal]
+//          [--tie-break kd-tree|lowest-index] [--compare]
 //
 // --rotate/--translate move the source first (degrees, roll-pitch-yaw), e.g. to match a model to
 // itself as in the seed's protocol. Clouds: .pcd, .ply, KITTI .bin, .las, .laz (two LAS/LAZ tiles
@@ -22,6 +23,7 @@
 #include <pcl/search/kdtree.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -130,6 +132,7 @@ struct Options {
   unsigned threads = 1;
   std::string graph, save_graph;
   bool reciprocal = false, compare = false;
+  pcl::registration::DelaunayWalkTieBreak tie_break = pcl::registration::DelaunayWalkTieBreak::KdTreeOrder;
 };
 
 template <typename Icp>
@@ -153,6 +156,30 @@ void printMatrix(const Matrix4& m) {
     std::printf("  %12.8f %12.8f %12.8f %12.8f\n", m(r, 0), m(r, 1), m(r, 2), m(r, 3));
 }
 
+/// The queries whose nearest target distance two or more target points share, and which one each
+/// correspondence took: FLANN keeps the first it visits, so a tie is where a walk that picked the
+/// lowest index would leave stock ICP's trajectory.
+void reportTies(const WalkIcp& icp) {
+  const auto& ties = icp.getCorrespondenceEstimationWalk()->getTies();
+  if (ties.empty()) {
+    std::printf("exact ties between equidistant targets: none\n");
+    return;
+  }
+  std::size_t broken = 0;
+  for (const auto& t : ties) broken += t.chosen != t.lowest ? 1 : 0;
+  std::printf(
+      "exact ties between equidistant targets: %zu queries (%zu where the k-d tree's pick is not the "
+      "lowest index)\n",
+      ties.size(), broken);
+  const std::size_t shown = std::min<std::size_t>(ties.size(), 8);
+  for (std::size_t i = 0; i < shown; ++i) {
+    const auto& t = ties[i];
+    std::printf("  iter %zu  source %d  d2 %.9g  lowest target %d  chosen %d\n", t.call + 1, t.query,
+                t.sqr_distance, t.lowest, t.chosen);
+  }
+  if (shown < ties.size()) std::printf("  ... %zu more\n", ties.size() - shown);
+}
+
 /// The walk's result and per-iteration statistics (queries, mean walk length, widened, NN time).
 void reportWalk(const WalkIcp& icp, const Report& w, const Options& o) {
   std::uint64_t steps = 0, queries = 0, widened = 0;
@@ -170,11 +197,12 @@ void reportWalk(const WalkIcp& icp, const Report& w, const Options& o) {
   std::printf("graph %s: %.3f s (%zu vertices, %zu directed edges)\n",
               o.graph.empty() ? "build" : "load+check", w.index_s, icp.getTargetGraph()->numVertices(),
               icp.getTargetGraph()->numDirectedEdges());
-  std::printf("per-iteration walk statistics:\n  iter  queries  mean-walks  widened   NN ms\n");
+  std::printf("per-iteration walk statistics:\n  iter  queries  mean-walks  widened  tied   NN ms\n");
   int it = 0;
   for (const auto& s : icp.getIterationStatistics())
-    std::printf("  %4d  %7zu  %10.3f  %7zu  %6.2f\n", ++it, s.queries, s.meanWalkSteps(), s.widened,
-                1e3 * s.nn_seconds);
+    std::printf("  %4d  %7zu  %10.3f  %7zu  %4zu  %6.2f\n", ++it, s.queries, s.meanWalkSteps(), s.widened,
+                s.ties, 1e3 * s.nn_seconds);
+  reportTies(icp);
   std::printf("mean walks/query %.3f over %llu queries (%llu widened)\n",
               queries ? double(steps) / queries : 0.0, static_cast<unsigned long long>(queries),
               static_cast<unsigned long long>(widened));
@@ -218,7 +246,8 @@ void usage() {
                "usage: dw_icp source target [--max-iterations N] [--max-distance D] [--epsilon E]\n"
                "              [--fitness-epsilon E] [--voxel L] [--rotate R P Y] [--translate X Y Z]\n"
                "              [--strategy zero|kd-ann|pnn|pnn-optimized] [--threads N] [--graph G]\n"
-               "              [--save-graph G] [--reciprocal] [--compare]\n");
+               "              [--save-graph G] [--reciprocal] [--tie-break kd-tree|lowest-index]\n"
+               "              [--compare]\n");
 }
 
 /// The command line: options into `o`, the two file names into `files`. Returns -1 to go on, else the
@@ -260,7 +289,15 @@ int parseOptions(int argc, char** argv, Options& o, std::vector<std::string>& fi
         o.graph = value();
       else if (a == "--save-graph")
         o.save_graph = value();
-      else if (a == "--reciprocal")
+      else if (a == "--tie-break") {
+        const std::string v = value();
+        if (v == "kd-tree")
+          o.tie_break = pcl::registration::DelaunayWalkTieBreak::KdTreeOrder;
+        else if (v == "lowest-index")
+          o.tie_break = pcl::registration::DelaunayWalkTieBreak::LowestIndex;
+        else
+          throw dw::Error("--tie-break: '" + v + "' is not kd-tree or lowest-index");
+      } else if (a == "--reciprocal")
         o.reciprocal = true;
       else if (a == "--compare")
         o.compare = true;
@@ -364,6 +401,7 @@ Report runWalk(const Cloud::Ptr& source, const Cloud::Ptr& target, const Options
   configure(icp, o);
   icp.setStartStrategy(o.strategy);
   icp.setNumberOfThreads(o.threads);
+  icp.getCorrespondenceEstimationWalk()->setTieBreak(o.tie_break);
   auto te = std::make_shared<TimedEstimation>();
   icp.setTransformationEstimation(te);
   const auto t_index = Clock::now();

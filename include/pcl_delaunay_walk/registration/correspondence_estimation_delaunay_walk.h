@@ -20,12 +20,28 @@ struct DelaunayWalkIterationStats {
   std::size_t correspondences = 0;  ///< correspondences kept (within max_distance)
   std::uint64_t walk_steps = 0;     ///< total walk moves (seed: walk count)
   std::size_t widened = 0;          ///< queries that needed the near-tie fallback
+  std::size_t ties = 0;             ///< queries whose nearest distance several targets share
   double nn_seconds = 0.0;          ///< wall time of the nearest-neighbour searches
 
   /** \brief Mean walk moves per query. */
   double meanWalkSteps() const {
     return queries ? static_cast<double>(walk_steps) / static_cast<double>(queries) : 0.0;
   }
+};
+
+/** \brief One query whose nearest target distance several target points share (an exact tie). */
+struct DelaunayWalkTie {
+  std::size_t call = 0;      ///< which determineCorrespondences() call since clearStatistics (0-based)
+  pcl::index_t query = 0;    ///< source index
+  pcl::index_t lowest = 0;   ///< the lowest target index at that distance (the walk's own answer)
+  pcl::index_t chosen = 0;   ///< the target index the correspondence got (see TieBreak)
+  float sqr_distance = 0.f;  ///< the shared squared distance
+};
+
+/** \brief How an exact tie between equidistant target points is broken. */
+enum class DelaunayWalkTieBreak {
+  KdTreeOrder,  ///< as pcl::KdTreeFLANN (the stock estimator's tree): its pick, asked from such a tree
+  LowestIndex   ///< the lowest target index (no k-d tree is ever built)
 };
 
 /** \brief Nearest-neighbour correspondences by the Delaunay walk.
@@ -43,6 +59,13 @@ struct DelaunayWalkIterationStats {
  * shares its walk, so the graph is built once and FLANN never. Reciprocal correspondences use the walk
  * for the forward search and PCL's source KdTree for the backward one, exactly as the stock class.
  * Source points with NaN coordinates get no correspondence.
+ *
+ * Exact ties: when several target points lie at exactly the nearest distance (duplicates, or
+ * equidistant points, common when source and target share a scanner's quantisation grid), FLANN keeps
+ * the first one its tree visits, which no rule on the points alone reproduces. With the default
+ * DelaunayWalkTieBreak::KdTreeOrder those queries (the walk reports them) are answered by a
+ * pcl::KdTreeFLANN of the target built with the stock estimator's settings, on the first tie only,
+ * so the correspondences, and ICP's trajectory, are the stock estimator's. getTies() lists them.
  */
 template <typename PointSource, typename PointTarget, typename Scalar = float>
 class CorrespondenceEstimationDelaunayWalk
@@ -100,6 +123,17 @@ class CorrespondenceEstimationDelaunayWalk
   /** \brief Get the number of threads (0: all hardware threads). */
   unsigned int getNumberOfThreads() const { return nr_threads_; }
 
+  /** \brief Set how exact ties between equidistant target points are broken (see the class).
+   * \param[in] tie_break KdTreeOrder (default, as the stock estimator) or LowestIndex
+   */
+  void setTieBreak(DelaunayWalkTieBreak tie_break) { tie_break_ = tie_break; }
+
+  /** \brief Get the tie rule. */
+  DelaunayWalkTieBreak getTieBreak() const { return tie_break_; }
+
+  /** \brief The tied queries of every call since the last clearStatistics(). */
+  const std::vector<DelaunayWalkTie>& getTies() const { return ties_; }
+
   /** \brief Nearest target point of every source point within max_distance.
    * \param[out] correspondences the correspondences, in source order
    * \param[in] max_distance maximum distance between corresponding points
@@ -126,8 +160,11 @@ class CorrespondenceEstimationDelaunayWalk
   /** \brief Statistics of every determineCorrespondences() call since the last clearStatistics(). */
   const std::vector<DelaunayWalkIterationStats>& getStatistics() const { return stats_; }
 
-  /** \brief Forget the collected statistics. */
-  void clearStatistics() { stats_.clear(); }
+  /** \brief Forget the collected statistics and ties. */
+  void clearStatistics() {
+    stats_.clear();
+    ties_.clear();
+  }
 
  protected:
   /** \brief Target set-up: share the walk of a KdTreeDelaunayWalk target tree if there is one, and
@@ -137,6 +174,15 @@ class CorrespondenceEstimationDelaunayWalk
   /** \brief The forward nearest-neighbour pass shared by both public methods. */
   void searchAll(double max_distance, bool reciprocal, pcl::Correspondences& correspondences);
 
+  /** \brief The same through the walk's internal k-d tree (its KdTreeFallback route). */
+  void searchAllByTree(double max_distance, bool reciprocal, pcl::Correspondences& correspondences);
+
+  /** \brief Gives the tied slots (keep_ == 2) the k-d tree's pick and the reciprocal check. */
+  void resolveTies(double max_dist_sqr, bool reciprocal);
+
+  /** \brief Whether target point \a match keeps source point \a idx as its own nearest. */
+  bool reciprocalHolds(pcl::index_t idx, pcl::index_t match, double max_dist_sqr) const;
+
   WalkSearchPtr walk_;
   dw::StartStrategy strategy_ = dw::StartStrategy::PnnOptimized;
   unsigned int nr_threads_ = 0;
@@ -145,6 +191,11 @@ class CorrespondenceEstimationDelaunayWalk
   std::uint64_t hint_graph_ = 0;
   std::vector<dw::index_t> hints_;
   std::vector<DelaunayWalkIterationStats> stats_;
+  std::vector<DelaunayWalkTie> ties_;
+  DelaunayWalkTieBreak tie_break_ = DelaunayWalkTieBreak::KdTreeOrder;
+  // The stock estimator's tree, built on the first tie of a target (keyed on the walk's graph id).
+  typename pcl::KdTreeFLANN<PointTarget>::Ptr tie_tree_;
+  std::uint64_t tie_tree_graph_ = 0;
   // Per-iteration scratch, kept between iterations: freeing and re-mapping five source-sized arrays
   // every iteration costs page faults next to walks of ~1-2 steps.
   std::vector<pcl::Correspondence> found_;

@@ -22,6 +22,9 @@ namespace pcl {
  *    localisation against a fixed map;
  *  - per-iteration statistics (walk counts, NN time) are kept for the last align().
  * getFitnessScore() and anything else that queries the target tree also walks.
+ * A point representation (setPointRepresentation, here or through a Registration pointer) is
+ * honoured as stock ICP honours it: searches in the represented space, by the walk for up to 3
+ * dimensions and by an internal exact pcl::KdTreeFLANN beyond (pcl::search::DelaunayWalk).
  */
 template <typename PointSource, typename PointTarget, typename Scalar = float>
 class IterativeClosestPointDelaunayWalk : public IterativeClosestPoint<PointSource, PointTarget, Scalar> {
@@ -39,6 +42,16 @@ class IterativeClosestPointDelaunayWalk : public IterativeClosestPoint<PointSour
   /** \brief Constructor: installs a walk tree and a walk correspondence estimator sharing one graph. */
   IterativeClosestPointDelaunayWalk();
   ~IterativeClosestPointDelaunayWalk() override = default;
+
+  /** \brief Set the point representation of the target searches, as stock ICP's. Called on this
+   * class, the walk takes it at once, so the first align() builds one graph; called through a
+   * Registration pointer, it reaches the walk inside align() (the first align() then builds twice).
+   * \param[in] representation the representation
+   */
+  void setPointRepresentation(const typename Base::PointRepresentationConstPtr& representation) {
+    Base::setPointRepresentation(representation);
+    walk_tree_->setPointRepresentation(representation);
+  }
 
   /** \brief Use a prebuilt graph of the target instead of building one; checked against the target
    * at the next align() (a dw::Error is thrown from align() if it was built from other points).

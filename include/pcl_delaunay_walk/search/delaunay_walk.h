@@ -4,11 +4,14 @@
 /// 2022), with results identical to pcl::search::KdTree up to exact ties.
 #pragma once
 
+#include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/point_cloud.h>
+#include <pcl/point_representation.h>
 #include <pcl/search/search.h>
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/core/search/caller_metric_search.h"
@@ -30,7 +33,16 @@ namespace search {
  * The graph is rebuilt only when the cloud's coordinates (or the indices) change: setting the same
  * content again, as pcl::Registration does on every align(), costs one comparison. A graph can also be
  * adopted ready-made (setInputCloudAndGraph) or loaded from a file (loadGraph); it is then checked
- * against the cloud point by point. Only x, y, z are used (no PointRepresentation).
+ * against the cloud point by point.
+ *
+ * A pcl::PointRepresentation (setPointRepresentation) is honoured as KdTreeFLANN honours it: the
+ * search space is the representation's (rescaled) vector, and the distances are FLANN's in that
+ * space. The route depends on its dimension (getRepresentationRoute()):
+ *  - none, or a trivial 3-D one (x, y, z): the graph of x, y, z, as without a representation;
+ *  - 1 to 3 dimensions otherwise: the graph of the represented coordinates (padded with zeros to 3-D,
+ *    which adds nothing to any distance), walked exactly as x, y, z;
+ *  - more than 3: the walk cannot search it, so an internal pcl::KdTreeFLANN with the same
+ *    representation and epsilon 0 answers (exact; a one-time PCL_WARN names the reason).
  */
 template <typename PointT>
 class DelaunayWalk : public Search<PointT> {
@@ -39,6 +51,15 @@ class DelaunayWalk : public Search<PointT> {
   using PointCloudConstPtr = typename Search<PointT>::PointCloudConstPtr;
   using Ptr = shared_ptr<DelaunayWalk<PointT>>;
   using ConstPtr = shared_ptr<const DelaunayWalk<PointT>>;
+  using PointRepresentationConstPtr = typename PointRepresentation<PointT>::ConstPtr;
+  using FallbackTree = pcl::KdTreeFLANN<PointT>;
+
+  /** \brief How queries are answered under the current point representation (see the class). */
+  enum class RepresentationRoute {
+    Xyz,            ///< the graph of x, y, z (no representation, or a trivial 3-D one)
+    Represented,    ///< the graph of the represented coordinates (1 to 3 dimensions)
+    KdTreeFallback  ///< more than 3 dimensions: an internal exact pcl::KdTreeFLANN
+  };
 
   using Search<PointT>::indices_;
   using Search<PointT>::input_;
@@ -62,6 +83,53 @@ class DelaunayWalk : public Search<PointT> {
    */
   void setInputCloud(const PointCloudConstPtr& cloud,
                      const IndicesConstPtr& indices = IndicesConstPtr()) override;
+
+  /** \brief setInputCloud and setPointRepresentation in one step: one build, and nothing changes if
+   * it throws.
+   * \param[in] cloud the reference cloud (must not be null)
+   * \param[in] indices optional subset
+   * \param[in] representation the point representation (null: x, y, z)
+   */
+  void setInputCloud(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices,
+                     const PointRepresentationConstPtr& representation);
+
+  /** \brief Set the point representation the search space is made of, as KdTreeFLANN's. With an input
+   * cloud already set, the search is rebuilt for it (unless the represented coordinates are unchanged).
+   * \param[in] representation the representation (null: x, y, z)
+   * \throws dw::Error for a representation of no dimensions
+   */
+  void setPointRepresentation(const PointRepresentationConstPtr& representation);
+
+  /** \brief The point representation in use (null when none was set: x, y, z). */
+  PointRepresentationConstPtr getPointRepresentation() const { return representation_; }
+
+  /** \brief How queries are answered under the current representation (see the class). */
+  RepresentationRoute getRepresentationRoute() const { return route_; }
+
+  /** \brief The route a representation would take (null: Xyz).
+   * \param[in] representation the representation
+   * \throws dw::Error for a representation of no dimensions
+   */
+  static RepresentationRoute routeOf(const PointRepresentationConstPtr& representation);
+
+  /** \brief The query's coordinates in the graph's space: x, y, z, or the represented coordinates
+   * padded with zeros (Represented route). Not meaningful for the KdTreeFallback route.
+   * \param[in] point the query point
+   * \param[out] q its three coordinates in the graph's space
+   */
+  void graphCoordinates(const PointT& point, float q[3]) const {
+    if (route_ == RepresentationRoute::Xyz) {
+      q[0] = point.x;
+      q[1] = point.y;
+      q[2] = point.z;
+      return;
+    }
+    q[0] = q[1] = q[2] = 0.f;
+    representation_->vectorize(point, q);
+  }
+
+  /** \brief The internal k-d tree of the KdTreeFallback route (null on the graph routes). */
+  const typename FallbackTree::ConstPtr& getFallbackTree() const { return fallback_; }
 
   /** \brief Set the reference cloud together with a prebuilt graph of it (no build).
    * \param[in] cloud the reference cloud
@@ -90,10 +158,11 @@ class DelaunayWalk : public Search<PointT> {
    */
   void saveGraph(const std::string& path) const;
 
-  /** \brief The current graph (null before setInputCloud). */
+  /** \brief The current graph (null before setInputCloud and on the KdTreeFallback route). */
   dw::DelaunayGraph::ConstPtr getGraph() const;
 
-  /** \brief The exact query engine over the current graph (null before setInputCloud). */
+  /** \brief The exact query engine over the current graph (null before setInputCloud and on the
+   * KdTreeFallback route). */
   dw::CallerMetricSearch::ConstPtr getCallerMetricSearch() const { return query_; }
 
   /** \brief Set where walks start: Zero, KdAnn (default), Pnn or PnnOptimized. With Pnn the hint is
@@ -198,8 +267,25 @@ class DelaunayWalk : public Search<PointT> {
   dw::index_t sequenceHint() const;
   void rememberHint(dw::index_t vertex) const;
   const dw::CallerMetricSearch& query() const;
+  /** \brief The KdTreeFallback route's setInputCloud. */
+  void setFallbackInput(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices,
+                        const PointRepresentationConstPtr& representation);
+  /** \brief The KdTreeFallback route's queries, with the walk's conventions for degenerate input. */
+  int fallbackKnn(const PointT& point, int k, Indices& k_indices, std::vector<float>& k_sqr_distances) const;
+  int fallbackRadius(const PointT& point, double radius, Indices& k_indices,
+                     std::vector<float>& k_sqr_distances, unsigned int max_nn) const;
+  /** \brief The input point at position \a index (of the subset, if any), or null if out of range. */
+  const PointT* fallbackPointAt(index_t index) const;
+  /** \brief Whether the KdTreeFallback route answers, and has points to answer from. */
+  bool fallbackAnswers() const { return fallback_ && fallback_points_ > 0; }
 
   dw::CallerMetricSearch::ConstPtr query_;
+  PointRepresentationConstPtr representation_;
+  RepresentationRoute route_ = RepresentationRoute::Xyz;
+  typename FallbackTree::ConstPtr fallback_;
+  std::vector<float> fallback_content_;  ///< the represented vectors the fallback tree was built on
+  std::size_t fallback_points_ = 0;      ///< valid points in the fallback tree
+  bool fallback_warned_ = false;
   dw::DelaunayGraph::ConstPtr pending_graph_;
   std::vector<std::int32_t> cloud_to_input_;  ///< only with an indices subset; -1 = not in it
   dw::StartStrategy strategy_ = dw::StartStrategy::KdAnn;

@@ -10,12 +10,51 @@
 
 namespace pcl {
 namespace search {
+namespace detail {
+
+/** \brief The FLANN tree slot of a KdTreeDelaunayWalk. It never builds an index: it holds the point
+ * representation PCL gives the tree and hands it to the walk. search::KdTree::setPointRepresentation
+ * is not virtual, so a call through a KdTree pointer (pcl::Registration makes one on every align())
+ * reaches only this slot; pcl::KdTree::setPointRepresentation then calls the virtual setInputCloud
+ * below, which is where the walk learns of it.
+ */
+template <typename PointT>
+class RepresentationSlot : public pcl::KdTreeFLANN<PointT> {
+ public:
+  using Ptr = shared_ptr<RepresentationSlot<PointT>>;
+  using PointCloudConstPtr = typename pcl::KdTreeFLANN<PointT>::PointCloudConstPtr;
+
+  /** \brief Constructor.
+   * \param[in] walk the walk that receives the representation
+   */
+  explicit RepresentationSlot(const typename DelaunayWalk<PointT>::Ptr& walk) : walk_(walk) {}
+
+  /** \brief Remember the tree's cloud without building anything (so that a later
+   * setPointRepresentation re-enters setInputCloud below). */
+  void attach(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices) {
+    this->input_ = cloud;
+    this->indices_ = indices;
+  }
+
+  /** \brief Reached from setPointRepresentation once a cloud is attached: the walk takes the
+   * representation (rebuilding only if the represented coordinates change). */
+  void setInputCloud(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices) override {
+    attach(cloud, indices);
+    walk_->setInputCloud(cloud, indices, this->getPointRepresentation());
+  }
+
+ private:
+  typename DelaunayWalk<PointT>::Ptr walk_;
+};
+
+}  // namespace detail
 
 /** \brief A KdTree whose queries are answered exactly by a DelaunayWalk search (no FLANN index).
  *
  * Everything a KdTree user calls works: setInputCloud (content-checked, so re-setting an unchanged
- * target keeps the graph), every nearestKSearch/radiusSearch overload. Settings that only make sense for
- * FLANN (epsilon, point representation) are ignored: the walk is exact and searches x, y, z.
+ * target keeps the graph), every nearestKSearch/radiusSearch overload, and setPointRepresentation,
+ * also through a KdTree pointer (as pcl::Registration calls it): the walk takes the representation as
+ * described in DelaunayWalk. Epsilon is accepted and has no effect: the walk is always exact.
  * Several objects (e.g. this tree and a CorrespondenceEstimationDelaunayWalk) may share one walk.
  */
 template <typename PointT>
@@ -26,6 +65,7 @@ class KdTreeDelaunayWalk : public KdTree<PointT> {
   using Ptr = shared_ptr<KdTreeDelaunayWalk<PointT>>;
   using ConstPtr = shared_ptr<const KdTreeDelaunayWalk<PointT>>;
   using WalkPtr = typename DelaunayWalk<PointT>::Ptr;
+  using PointRepresentationConstPtr = typename KdTree<PointT>::PointRepresentationConstPtr;
 
   using KdTree<PointT>::input_;
   using KdTree<PointT>::indices_;
@@ -53,6 +93,12 @@ class KdTreeDelaunayWalk : public KdTree<PointT> {
    */
   void setInputCloud(const PointCloudConstPtr& cloud,
                      const IndicesConstPtr& indices = IndicesConstPtr()) override;
+
+  /** \brief Set the point representation (see DelaunayWalk::setPointRepresentation); a call through
+   * a pcl::search::KdTree pointer has the same effect.
+   * \param[in] representation the representation
+   */
+  void setPointRepresentation(const PointRepresentationConstPtr& representation);
 
   /** \brief Set where walks start (see DelaunayWalk::setStartStrategy).
    * \param[in] strategy the start strategy

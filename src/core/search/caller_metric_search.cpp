@@ -71,6 +71,7 @@ CallerMetricSearch::CallerMetricSearch(dw::DelaunayGraph::ConstPtr graph, std::v
     VertexRecord& r = vertex_[v];
     std::copy(p0, p0 + 3, r.xyz);
     r.cloud = cloudIndex(first);
+    const bool shared = graph->originals_offsets[v + 1] - graph->originals_offsets[v] > 1;
     for (dw::index_t o = graph->originals_offsets[v] + 1; o < graph->originals_offsets[v + 1]; ++o) {
       const dw::index_t in = graph->originals[o];
       const float* p = &xyz_[3 * static_cast<std::size_t>(in)];
@@ -81,6 +82,7 @@ CallerMetricSearch::CallerMetricSearch(dw::DelaunayGraph::ConstPtr graph, std::v
       }
       r.cloud = std::min(r.cloud, cloudIndex(in));
     }
+    if (shared && r.cloud != kMixed) r.cloud = ~r.cloud;  // duplicates: every nearest query is a tie
   }
   for (const dw::Vec3f& p : graph->points)
     extent_ = std::max({extent_, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
@@ -135,6 +137,7 @@ bool CallerMetricSearch::locate(const float q[3], dw::StartStrategy strategy, dw
     stats->nn_vertex = nn.vertex;
     stats->walk_steps = nn.steps;
     stats->widened = false;
+    stats->tied = false;
   }
   return true;
 }
@@ -176,12 +179,20 @@ bool CallerMetricSearch::nearest(const float q[3], dw::StartStrategy strategy, d
   // All originals of the nearest vertex share its local distance; pick among them in the caller metric.
   const VertexRecord& vr = vertex_[nn.vertex];
   WalkNeighbour best{distance(q, vr.xyz), vr.cloud};
-  if (vr.cloud == kMixed) {
+  // Points at exactly the best distance, the best included (two or more: a tie).
+  std::size_t at_best = 1;
+  if (vr.cloud < 0 && vr.cloud != kMixed) {
+    best.index = ~vr.cloud;
+    at_best = 2;
+  } else if (vr.cloud == kMixed) {
     best.index = -1;
     for (dw::index_t o = g.originals_offsets[nn.vertex]; o < g.originals_offsets[nn.vertex + 1]; ++o) {
       const WalkNeighbour c{callerDistance(q, g.originals[o]), cloudIndex(g.originals[o])};
       if (best.index < 0 || byDistanceThenIndex(c, best)) best = c;
     }
+    at_best = 0;
+    for (dw::index_t o = g.originals_offsets[nn.vertex]; o < g.originals_offsets[nn.vertex + 1]; ++o)
+      at_best += callerDistance(q, g.originals[o]) == best.sqr_distance ? 1 : 0;
   }
   // The second nearest vertex is a Delaunay neighbour of the nearest (docs/architecture.md, "Why the searches
   // are exact"), so if every neighbour is clearly farther, no other point can be nearer in the caller's
@@ -218,12 +229,17 @@ bool CallerMetricSearch::nearest(const float q[3], dw::StartStrategy strategy, d
   if (!certain) {
     Scratch& s = Scratch::get();
     search_->radius(ql, bound, nn, s.inputs, s.dist2, 0);
+    // The band holds the nearest vertex's originals too: count every point afresh.
+    at_best = 0;
     for (std::size_t i = 0; i < s.inputs.size(); ++i) {
       const WalkNeighbour c{callerDistance(q, s.inputs[i]), cloudIndex(s.inputs[i])};
       if (byDistanceThenIndex(c, best)) best = c;
     }
+    for (std::size_t i = 0; i < s.inputs.size(); ++i)
+      at_best += callerDistance(q, s.inputs[i]) == best.sqr_distance ? 1 : 0;
     if (stats) stats->widened = true;
   }
+  if (stats) stats->tied = at_best > 1;
   out = best;
   return true;
 }

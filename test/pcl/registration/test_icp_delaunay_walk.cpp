@@ -1,5 +1,5 @@
 // The walk in ICP gives the same final transformation as stock pcl::IterativeClosestPoint with its
-// KdTree (element-wise within 1e-5, same iteration count), through both ways of installing it: stock
+// KdTree (element-wise within 1e-6, same iteration count), through both ways of installing it: stock
 // ICP + CorrespondenceEstimationDelaunayWalk + KdTreeDelaunayWalk, and IterativeClosestPointDelaunayWalk.
 // PCL's SVD transformation estimation, instantiated here, trips GCC 12 false positives inside Eigen.
 #pragma GCC diagnostic ignored "-Warray-bounds"
@@ -114,7 +114,7 @@ void expectSame(const Outcome& a, const Outcome& b, const std::string& what) {
   EXPECT_EQ(a.converged, b.converged) << what;
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c)
-      EXPECT_NEAR(a.transform(r, c), b.transform(r, c), 1e-5) << what << " (" << r << "," << c << ")";
+      EXPECT_NEAR(a.transform(r, c), b.transform(r, c), 1e-6) << what << " (" << r << "," << c << ")";
   EXPECT_NEAR(a.fitness, b.fitness, 1e-6 * std::max(1.0, a.fitness)) << what;
 }
 
@@ -231,7 +231,6 @@ TEST(IcpDelaunayWalk, DragonToItselfAllRotationCombinations) {
   // of stock ICP and of the subclass (every second point of res4, to keep ctest quick).
   Cloud::Ptr model(new Cloud);
   for (std::size_t i = 0; i < dragon->size(); i += 2) model->push_back((*dragon)[i]);
-  int equal_iterations = 0, runs = 0;
   for (int r = -20; r <= 20; r += 10)
     for (int p = -20; p <= 20; p += 10)
       for (int y = -20; y <= 20; y += 10) {
@@ -244,19 +243,11 @@ TEST(IcpDelaunayWalk, DragonToItselfAllRotationCombinations) {
             "rpy " + std::to_string(r) + " " + std::to_string(p) + " " + std::to_string(y);
         EXPECT_EQ(a.converged, b.converged) << what;
         for (int i = 0; i < 4; ++i)
-          for (int j = 0; j < 4; ++j) EXPECT_NEAR(a.transform(i, j), b.transform(i, j), 1e-5) << what;
-        EXPECT_LE(std::abs(a.iterations - b.iterations), 1) << what;
-        if (a.iterations == b.iterations)
-          ++equal_iterations;
-        else
-          std::printf("[ info ] %s: %d vs %d iterations (transforms agree)\n", what.c_str(), a.iterations,
-                      b.iterations);
-        ++runs;
+          for (int j = 0; j < 4; ++j) EXPECT_NEAR(a.transform(i, j), b.transform(i, j), 1e-6) << what;
+        // Exact ties between equidistant targets are broken as FLANN breaks them (docs/registration.md,
+        // "Exactness and ties"), so even at epsilon 1e-11 the runs stop at the same iteration.
+        EXPECT_EQ(a.iterations, b.iterations) << what;
       }
-  // An exact tie (two target points at identical float distance) is resolved by lowest index here and
-  // by traversal order in FLANN; at epsilon 1e-11 that can move ICP's stop by one iteration
-  // (docs/registration.md). Measured: 124 of 125 runs equal.
-  EXPECT_GE(equal_iterations, runs - 3);
 }
 
 TEST(IcpDelaunayWalk, DragonWithNoisyTarget) {

@@ -14,6 +14,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -32,6 +33,11 @@ struct CallerMetricSearchStats {
   dw::index_t nn_vertex = dw::kInvalidIndex;  ///< the query's nearest vertex (the next PNN hint)
   std::uint32_t walk_steps = 0;               ///< moves of the walk (seed: "walk count")
   bool widened = false;                       ///< the certification needed the radius fallback
+  /// nearest() only: another point lies at exactly the answer's caller distance (an exact tie, or a
+  /// duplicate of the answer); the answer is then the lowest caller index among them. A k-d tree
+  /// may name another of them (FLANN keeps the first it visits), so callers that must equal one can
+  /// resolve these queries by asking it.
+  bool tied = false;
 };
 
 class CallerMetricSearch {
@@ -127,9 +133,11 @@ class CallerMetricSearch {
   // scanned in full.
   struct VertexRecord {
     float xyz[3];
-    std::int32_t cloud;  ///< lowest cloud index of the originals; kMixed: scan them all
+    /// The lowest cloud index c of the originals: c for a vertex of one point, ~c (negative) for
+    /// duplicates at the same caller coordinates; kMixed: scan them all.
+    std::int32_t cloud;
   };
-  static constexpr std::int32_t kMixed = -1;
+  static constexpr std::int32_t kMixed = std::numeric_limits<std::int32_t>::min();
   std::vector<VertexRecord> vertex_;  // one 16-byte record: one line to prefetch (prefetchStart)
   std::size_t num_finite_ = 0;
   float extent_ = 0.f;  ///< largest |local coordinate| of any vertex

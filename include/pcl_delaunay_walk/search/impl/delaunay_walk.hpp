@@ -14,33 +14,44 @@ namespace pcl {
 namespace search {
 namespace detail {
 
-/// The caller's xyz of the cloud (or of its subset, in subset order) and the subset's cloud indices.
+/// Throws unless every index of the subset lies in the cloud.
 template <typename PointT>
-void gatherXyz(const pcl::PointCloud<PointT>& cloud, const pcl::Indices* indices, std::vector<float>& xyz,
+void checkIndices(const pcl::PointCloud<PointT>& cloud, const pcl::Indices& indices) {
+  for (std::size_t i = 0; i < indices.size(); ++i)
+    if (indices[i] < 0 || static_cast<std::size_t>(indices[i]) >= cloud.size())
+      throw dw::Error("pcl::search::DelaunayWalk: index " + std::to_string(indices[i]) + " at position " +
+                      std::to_string(i) + " is outside the cloud of " + std::to_string(cloud.size()) +
+                      " points");
+}
+
+/// The coordinates the graph is built on, 3 floats per point of the cloud (or of its subset, in
+/// subset order): x, y, z, or the representation's vector padded with zeros; and the subset's cloud
+/// indices.
+template <typename PointT>
+void gatherXyz(const pcl::PointCloud<PointT>& cloud, const pcl::Indices* indices,
+               const pcl::PointRepresentation<PointT>* representation, std::vector<float>& xyz,
                std::vector<std::int32_t>& input_to_cloud) {
   static_assert(sizeof(pcl::index_t) <= sizeof(std::int32_t) || std::is_signed<pcl::index_t>::value,
                 "pcl_delaunay_walk supports PCL's default 32-bit index_t");
   const std::size_t n = indices ? indices->size() : cloud.size();
   if (n >= static_cast<std::size_t>(INT32_MAX))
     throw dw::Error("pcl::search::DelaunayWalk: clouds of 2^31 points or more are not supported");
+  if (indices) checkIndices(cloud, *indices);
   xyz.resize(3 * n);
   input_to_cloud.clear();
-  if (indices) input_to_cloud.resize(n);
+  if (indices) input_to_cloud.assign(indices->begin(), indices->end());
   for (std::size_t i = 0; i < n; ++i) {
-    std::size_t c = i;
-    if (indices) {
-      const auto idx = (*indices)[i];
-      if (idx < 0 || static_cast<std::size_t>(idx) >= cloud.size())
-        throw dw::Error("pcl::search::DelaunayWalk: index " + std::to_string(idx) + " at position " +
-                        std::to_string(i) + " is outside the cloud of " + std::to_string(cloud.size()) +
-                        " points");
-      c = static_cast<std::size_t>(idx);
-      input_to_cloud[i] = static_cast<std::int32_t>(idx);
+    const PointT& p = cloud[indices ? static_cast<std::size_t>((*indices)[i]) : i];
+    float* out = &xyz[3 * i];
+    if (!representation) {
+      out[0] = p.x;
+      out[1] = p.y;
+      out[2] = p.z;
+      continue;
     }
-    const PointT& p = cloud[c];
-    xyz[3 * i] = p.x;
-    xyz[3 * i + 1] = p.y;
-    xyz[3 * i + 2] = p.z;
+    float v[3] = {0.f, 0.f, 0.f};  // unused dimensions stay 0: they add nothing to any distance
+    representation->vectorize(p, v);
+    std::copy(v, v + 3, out);
   }
 }
 
@@ -57,11 +68,46 @@ template <typename PointT>
 DelaunayWalk<PointT>::DelaunayWalk(bool sorted) : Search<PointT>("DelaunayWalk", sorted) {}
 
 template <typename PointT>
+typename DelaunayWalk<PointT>::RepresentationRoute DelaunayWalk<PointT>::routeOf(
+    const PointRepresentationConstPtr& representation) {
+  if (!representation) return RepresentationRoute::Xyz;
+  const int dims = representation->getNumberOfDimensions();
+  if (dims <= 0)
+    throw dw::Error("pcl::search::DelaunayWalk: the point representation has " + std::to_string(dims) +
+                    " dimensions");
+  // Trivial: vectorize() copies the point's first floats unscaled, and every xyz type starts x, y, z.
+  if (dims == 3 && representation->isTrivial()) return RepresentationRoute::Xyz;
+  return dims <= 3 ? RepresentationRoute::Represented : RepresentationRoute::KdTreeFallback;
+}
+
+template <typename PointT>
 void DelaunayWalk<PointT>::setInputCloud(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices) {
+  setInputCloud(cloud, indices, representation_);
+}
+
+template <typename PointT>
+void DelaunayWalk<PointT>::setPointRepresentation(const PointRepresentationConstPtr& representation) {
+  if (input_)
+    setInputCloud(input_, indices_, representation);
+  else {
+    route_ = routeOf(representation);
+    representation_ = representation;
+  }
+}
+
+template <typename PointT>
+void DelaunayWalk<PointT>::setInputCloud(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices,
+                                         const PointRepresentationConstPtr& representation) {
   if (!cloud) throw dw::Error("pcl::search::DelaunayWalk::setInputCloud: null cloud");
+  const RepresentationRoute route = routeOf(representation);
+  if (route == RepresentationRoute::KdTreeFallback) {
+    setFallbackInput(cloud, indices, representation);
+    return;
+  }
   std::vector<float> xyz;
   std::vector<std::int32_t> map;
-  detail::gatherXyz(*cloud, indices.get(), xyz, map);
+  detail::gatherXyz(*cloud, indices.get(), route == RepresentationRoute::Xyz ? nullptr : representation.get(),
+                    xyz, map);
   const auto t0 = std::chrono::steady_clock::now();
   dw::CallerMetricSearch::ConstPtr q;
   if (pending_graph_) {
@@ -88,6 +134,68 @@ void DelaunayWalk<PointT>::setInputCloud(const PointCloudConstPtr& cloud, const 
   pending_graph_.reset();
   query_ = std::move(q);
   cloud_to_input_ = std::move(cloud_to_input);
+  fallback_.reset();
+  fallback_content_.clear();
+  fallback_points_ = 0;
+  representation_ = representation;
+  route_ = route;
+  input_ = cloud;
+  indices_ = indices;
+}
+
+template <typename PointT>
+void DelaunayWalk<PointT>::setFallbackInput(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices,
+                                            const PointRepresentationConstPtr& representation) {
+  const int dims = representation->getNumberOfDimensions();
+  if (pending_graph_)
+    throw dw::Error(
+        "pcl::search::DelaunayWalk: a prebuilt graph cannot answer for a point representation of " +
+        std::to_string(dims) + " dimensions (the walk searches at most 3)");
+  if (indices) detail::checkIndices(*cloud, *indices);
+  // The represented vectors decide whether the tree can be kept, as the coordinates do for a graph.
+  const std::size_t n = indices ? indices->size() : cloud->size();
+  std::vector<float> content(static_cast<std::size_t>(dims) * n + n);
+  std::size_t valid = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const PointT& p = (*cloud)[indices ? static_cast<std::size_t>((*indices)[i]) : i];
+    float* out = &content[static_cast<std::size_t>(dims) * i];
+    representation->vectorize(p, out);
+    const bool ok = representation->isValid(p);
+    content[static_cast<std::size_t>(dims) * n + i] = ok ? 1.f : 0.f;
+    valid += ok ? 1 : 0;
+  }
+  if (indices)
+    for (const auto idx : *indices) content.push_back(static_cast<float>(idx));
+  const auto t0 = std::chrono::steady_clock::now();
+  typename FallbackTree::ConstPtr tree = fallback_;
+  const bool reused =
+      tree && fallback_content_.size() == content.size() &&
+      std::memcmp(fallback_content_.data(), content.data(), content.size() * sizeof(float)) == 0;
+  if (!reused) {
+    auto built = pcl::make_shared<FallbackTree>(true);
+    built->setEpsilon(0.f);  // exact, whatever epsilon the caller gave a KdTree
+    built->setPointRepresentation(representation);
+    if (valid > 0) built->setInputCloud(cloud, indices);
+    tree = built;
+    ++num_builds_;
+  }
+  if (!fallback_warned_) {
+    PCL_WARN(
+        "[pcl::search::DelaunayWalk] the point representation has %d dimensions and the Delaunay walk "
+        "searches at most 3; queries are answered exactly by an internal pcl::KdTreeFLANN with the "
+        "same representation instead.\n",
+        dims);
+    fallback_warned_ = true;
+  }
+  last_build_seconds_ =
+      reused ? 0.0 : std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  query_.reset();
+  cloud_to_input_.clear();
+  fallback_ = std::move(tree);
+  fallback_content_ = std::move(content);
+  fallback_points_ = valid;
+  representation_ = representation;
+  route_ = RepresentationRoute::KdTreeFallback;
   input_ = cloud;
   indices_ = indices;
 }
@@ -207,9 +315,41 @@ int DelaunayWalk<PointT>::radiusFrom(const float q[3], double radius, unsigned i
 }
 
 template <typename PointT>
+int DelaunayWalk<PointT>::fallbackKnn(const PointT& point, int k, Indices& k_indices,
+                                      std::vector<float>& k_sqr_distances) const {
+  if (!fallback_) query();  // the same clear error as the graph routes
+  k_indices.clear();
+  k_sqr_distances.clear();
+  // FLANN asserts on these; the walk's conventions (0 results) hold on every route.
+  if (k <= 0 || !fallbackAnswers() || !representation_->isValid(point)) return 0;
+  return fallback_->nearestKSearch(point, k, k_indices, k_sqr_distances);
+}
+
+template <typename PointT>
+int DelaunayWalk<PointT>::fallbackRadius(const PointT& point, double radius, Indices& k_indices,
+                                         std::vector<float>& k_sqr_distances, unsigned int max_nn) const {
+  if (!fallback_) query();
+  k_indices.clear();
+  k_sqr_distances.clear();
+  if (!(radius >= 0.0) || !fallbackAnswers() || !representation_->isValid(point)) return 0;
+  return fallback_->radiusSearch(point, radius, k_indices, k_sqr_distances, max_nn);
+}
+
+template <typename PointT>
+const PointT* DelaunayWalk<PointT>::fallbackPointAt(index_t index) const {
+  if (!fallback_) query();
+  const std::size_t n = indices_ ? indices_->size() : input_->size();
+  if (index < 0 || static_cast<std::size_t>(index) >= n) return nullptr;
+  return &(
+      *input_)[indices_ ? static_cast<std::size_t>((*indices_)[index]) : static_cast<std::size_t>(index)];
+}
+
+template <typename PointT>
 int DelaunayWalk<PointT>::nearestKSearch(const PointT& point, int k, Indices& k_indices,
                                          std::vector<float>& k_sqr_distances) const {
-  const float q[3] = {point.x, point.y, point.z};
+  if (route_ == RepresentationRoute::KdTreeFallback) return fallbackKnn(point, k, k_indices, k_sqr_distances);
+  float q[3];
+  graphCoordinates(point, q);
   query();  // a clear error before any hint lookup
   return knnFrom(q, k, strategy_, sequenceHint(), k_indices, k_sqr_distances);
 }
@@ -224,6 +364,13 @@ std::int64_t DelaunayWalk<PointT>::inputOfCloudIndex(index_t index) const {
 template <typename PointT>
 int DelaunayWalk<PointT>::nearestKSearch(index_t index, int k, Indices& k_indices,
                                          std::vector<float>& k_sqr_distances) const {
+  if (route_ == RepresentationRoute::KdTreeFallback) {
+    const PointT* p = fallbackPointAt(index);
+    if (p) return fallbackKnn(*p, k, k_indices, k_sqr_distances);
+    k_indices.clear();
+    k_sqr_distances.clear();
+    return 0;
+  }
   const dw::CallerMetricSearch& wq = query();
   if (index < 0 || static_cast<std::size_t>(index) >= wq.numInputs()) {
     k_indices.clear();
@@ -244,7 +391,7 @@ int DelaunayWalk<PointT>::nearestKSearch(const PointCloud& cloud, index_t index,
     k_sqr_distances.clear();
     return 0;
   }
-  if (&cloud == input_.get()) {
+  if (&cloud == input_.get() && route_ != RepresentationRoute::KdTreeFallback) {
     const std::int64_t input = inputOfCloudIndex(index);
     if (input >= 0) return nearestKSearch(static_cast<index_t>(input), k, k_indices, k_sqr_distances);
   }
@@ -254,7 +401,10 @@ int DelaunayWalk<PointT>::nearestKSearch(const PointCloud& cloud, index_t index,
 template <typename PointT>
 int DelaunayWalk<PointT>::radiusSearch(const PointT& point, double radius, Indices& k_indices,
                                        std::vector<float>& k_sqr_distances, unsigned int max_nn) const {
-  const float q[3] = {point.x, point.y, point.z};
+  if (route_ == RepresentationRoute::KdTreeFallback)
+    return fallbackRadius(point, radius, k_indices, k_sqr_distances, max_nn);
+  float q[3];
+  graphCoordinates(point, q);
   query();
   return radiusFrom(q, radius, max_nn, strategy_, sequenceHint(), k_indices, k_sqr_distances);
 }
@@ -262,6 +412,13 @@ int DelaunayWalk<PointT>::radiusSearch(const PointT& point, double radius, Indic
 template <typename PointT>
 int DelaunayWalk<PointT>::radiusSearch(index_t index, double radius, Indices& k_indices,
                                        std::vector<float>& k_sqr_distances, unsigned int max_nn) const {
+  if (route_ == RepresentationRoute::KdTreeFallback) {
+    const PointT* p = fallbackPointAt(index);
+    if (p) return fallbackRadius(*p, radius, k_indices, k_sqr_distances, max_nn);
+    k_indices.clear();
+    k_sqr_distances.clear();
+    return 0;
+  }
   const dw::CallerMetricSearch& wq = query();
   if (index < 0 || static_cast<std::size_t>(index) >= wq.numInputs()) {
     k_indices.clear();
@@ -282,7 +439,7 @@ int DelaunayWalk<PointT>::radiusSearch(const PointCloud& cloud, index_t index, d
     k_sqr_distances.clear();
     return 0;
   }
-  if (&cloud == input_.get()) {
+  if (&cloud == input_.get() && route_ != RepresentationRoute::KdTreeFallback) {
     const std::int64_t input = inputOfCloudIndex(index);
     if (input >= 0)
       return radiusSearch(static_cast<index_t>(input), radius, k_indices, k_sqr_distances, max_nn);
