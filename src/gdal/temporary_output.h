@@ -1,8 +1,8 @@
 /// \file temporary_output.h
-/// \brief LOCAL STAND-IN for the project's shared safe-output utility (being written in src/core/util);
-/// replace the uses of dw::gdal::detail::TemporaryOutput by it when it lands. The contract is the
-/// same: write under a temporary name in the target's folder, make the bytes durable, and rename over
-/// the target only when complete, so that a failure never destroys an existing file.
+/// \brief A GDAL output under a temporary name: the core's temporaryPathFor / commitTemporary /
+/// discardTemporary (core/util/safe_output_file.h) as one scoped object, plus GDAL's side file
+/// "<temporary>.aux.xml". Write under path(), commit() when complete; a failure or a scope left without
+/// commit never destroys an existing target.
 #pragma once
 
 #include <string>
@@ -13,8 +13,8 @@ namespace detail {
 
 class TemporaryOutput {
  public:
-  /// Chooses "<folder>/.<name>.tmp-<pid>-<n><ext>" beside `target` (ext: the target's, so that tools
-  /// that look at names see the right type). Creates nothing yet.
+  /// Creates the temporary beside `target` (dw::temporaryPathFor: the target's extension kept, so that
+  /// GDAL picks the right driver by name).
   explicit TemporaryOutput(const std::string& target);
   /// Removes the temporary file (and a GDAL side file "<temporary>.aux.xml") unless committed.
   ~TemporaryOutput();
@@ -23,7 +23,7 @@ class TemporaryOutput {
 
   const std::string& path() const { return temporary_; }
   const std::string& target() const { return target_; }
-  /// fsync()s the temporary file, then renames it over the target; throws dw::Error naming both files
+  /// fsync()s the temporary file, then renames it over the target; throws dw::Error naming the target
   /// and the system's reason when either fails (the target is then as it was, the temporary removed).
   void commit();
   /// Removes the temporary file now (idempotent).

@@ -86,7 +86,7 @@ void LazWriter::put(const void* p, std::size_t n) {
 }
 
 void LazWriter::write(const LasRecord& r) {
-  if (!file_) throw LasError(path_ + ": write() after close()");
+  if (closed_) throw LasError(path_ + ": write() after close()");
   std::uint8_t* rec = records_.data() + buffered_ * h_.record_length;
   encodeRecord(r, h_.point_format, rec);
   std::memset(rec + baseRecordSize(h_.point_format), 0, extra_);
@@ -98,7 +98,7 @@ void LazWriter::endChunk() {
   if (chunking_ != LazChunking::kVariable)
     throw LasError(path_ + ": endChunk() needs variable chunking (fixed chunks hold " +
                    std::to_string(chunk_size_) + " points each)");
-  if (!file_) throw LasError(path_ + ": endChunk() after close()");
+  if (closed_) throw LasError(path_ + ": endChunk() after close()");
   flushChunk();
 }
 

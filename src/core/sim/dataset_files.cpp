@@ -61,9 +61,8 @@ void writeLas(const std::string& path, const SurfaceSamples& map) {
   h.point_format = 6;
   h.scale[0] = h.scale[1] = h.scale[2] = 0.001;
   h.software = "dw_urban_gen";
-  const std::string tmp = detail::temporaryPathFor(path);
   try {
-    las::LasWriter w(tmp, h);
+    las::LasWriter w(path, h);  // a temporary beside path, renamed over it by close()
     las::LasRecord r;
     r.return_number = r.number_of_returns = 1;
     for (std::size_t i = 0; i < map.size(); ++i) {
@@ -78,10 +77,8 @@ void writeLas(const std::string& path, const SurfaceSamples& map) {
     }
     w.close();
   } catch (const std::exception& e) {
-    std::remove(tmp.c_str());
     throw Error("cannot write " + path + ": " + e.what());
   }
-  detail::commitTemporary(tmp, path);
 }
 
 }  // namespace
