@@ -3,12 +3,14 @@
 /// peer. Compiled once per nanoflann version (bench/CMakeLists.txt): DW_NANOFLANN_NS renames the
 /// library's namespace so that two versions share a process without clashing, DW_NANOFLANN_FACTORY
 /// names this unit's factory and DW_NANOFLANN_LABEL the version reported.
+// nanoflann 1.4.3's header uses std::uint32_t without including <cstdint>; newer GCCs no longer
+// bring it in through other headers.
+#include <cstdint>
 #define nanoflann DW_NANOFLANN_NS
 #include <nanoflann.hpp>
 #undef nanoflann
 
 #include <algorithm>
-#include <cstdint>
 
 #include "peers/peers.h"
 
