@@ -84,7 +84,7 @@ print("\n".join(sorted(names)))' | grep -Fxf <(printf '%s\n' "$available")
     # out of the JSON above, so the apps are also read from the generated test files themselves.
     grep -rhoE '/(apps|bench)/dw_[A-Za-z0-9_]+' "$dir" --include=CTestTestfile.cmake 2>/dev/null | sed 's|.*/||' |
       grep -Fxf <(printf '%s\n' "$available")
-  } | sort -u
+  } | grep -E '^(test_|dw_)' | sort -u  # a test argument may share a name with a utility target (clean)
 }
 
 run_asan() {
