@@ -330,7 +330,8 @@ class RatioReporter : public benchmark::ConsoleReporter {
       if (it == r.counters.end()) continue;
       std::string name = r.run_name.str();
       const std::string suffix = "/process_time";
-      if (name.size() > suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
+      if (name.size() > suffix.size() &&
+          name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
         name.resize(name.size() - suffix.size());
       const auto slash = name.find_last_of('/');
       results()[name.substr(0, slash)][name.substr(slash + 1)] = it->second.value;

@@ -1,7 +1,8 @@
 /// \file las_io.h
 /// \brief Loading LAS 1.0-1.4 (point formats 0-10) and LAZ (LASzip-compressed, formats 0-3 and 6-8)
-/// into a pcl::PointCloud, with an optional class filter. Georeferenced coordinates do not fit float: the cloud is stored relative to an origin
-/// (a point of the LAS integer grid near the data's centre) that is returned in double.
+/// into a pcl::PointCloud, with an optional class filter. Georeferenced coordinates do not fit float: the
+/// cloud is stored relative to an origin (a point of the LAS integer grid near the data's centre) that is
+/// returned in double.
 #pragma once
 
 #include <pcl/point_cloud.h>
