@@ -113,9 +113,18 @@ run_asan() {
   # run with that one check off, ASan's other checks and UBSan on; every other test keeps it, and
   # the same kernel code runs under it in the other parallel-insertion tests.
   local uar_slow='^core[.]builder3d[.](PartitionedInsertion[.]CospericalGridAndQuantisedTies|BlockParallel[.]IntegerGrid)$'
+  # Debian's libpcl 1.13 is compiled as C++14, where Eigen's EIGEN_MAKE_ALIGNED_OPERATOR_NEW gives
+  # pcl::PointCloud a class operator new on std::malloc; in our C++17 code that macro is empty, so a
+  # cloud the library news (CorrespondenceRejectorMedianDistance::setSourcePoints) is freed by the
+  # shared_ptr deleter instantiated here with the global operator delete. glibc frees both alike; ASan
+  # reports the pairing. Only the tests that drive such library-allocated clouds run without that check.
+  local pcl_cxx14_new='^pcl[.]compat[.]RegistrationCompat[.]WithRejectors$'
   timeout "$BUDGET" ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS" --timeout "$TEST_TIMEOUT" \
-      -E "$EXCLUDE|^mpi[.]run[.]|$uar_slow" ${SANITIZE_CTEST_ARGS:-}
+      -E "$EXCLUDE|^mpi[.]run[.]|$uar_slow|$pcl_cxx14_new" ${SANITIZE_CTEST_ARGS:-}
   local rc=$?
+  ASAN_OPTIONS="$ASAN_OPTIONS:alloc_dealloc_mismatch=0" \
+    timeout "$BUDGET" ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS" --timeout "$TEST_TIMEOUT" \
+      -R "$pcl_cxx14_new" -E "$EXCLUDE" ${SANITIZE_CTEST_ARGS:-} || rc=1
   ASAN_OPTIONS="${ASAN_OPTIONS/detect_stack_use_after_return=1/detect_stack_use_after_return=0}" \
     timeout "$BUDGET" ctest --test-dir "$ASAN_DIR" --output-on-failure -j "$JOBS" --timeout "$TEST_TIMEOUT" \
       -R "$uar_slow" -E "$EXCLUDE" ${SANITIZE_CTEST_ARGS:-} || rc=1
