@@ -131,7 +131,13 @@ bool CallerMetricSearch::locate(const float q[3], dw::StartStrategy strategy, dw
   if (num_finite_ == 0 || !std::isfinite(q[0]) || !std::isfinite(q[1]) || !std::isfinite(q[2])) return false;
   ql = search_->graph().toLocal(q[0], q[1], q[2]);
   q_extent = std::max({std::fabs(ql.x), std::fabs(ql.y), std::fabs(ql.z)});
-  nn = search_->nearest(ql, strategy, hint);
+  // The answer's caller-side record (vertex_) is read right after the walk, and with queries in no
+  // spatial order it is a cache miss that the walk cannot hide (most of nearest()'s own time in a
+  // profile). The walk mostly ends at or next to its start, so loading the start's record now
+  // overlaps that miss with the walk.
+  const dw::index_t start = search_->startVertex(ql, strategy, hint);
+  if (start < vertex_.size()) __builtin_prefetch(&vertex_[start]);
+  nn = dw::walk(search_->graph(), ql, start);
   if (nn.vertex == dw::kInvalidIndex) return false;
   if (stats) {
     stats->nn_vertex = nn.vertex;
@@ -151,22 +157,26 @@ void CallerMetricSearch::collect(const float q[3], const std::vector<dw::index_t
 
 void CallerMetricSearch::collectVertices(const float q[3], const std::vector<dw::VertexNeighbour>& vertices,
                                          std::size_t count, std::vector<WalkNeighbour>& out) const {
-  out.clear();
+  // Sized once and written through a pointer, as radius(): no capacity check per neighbour.
+  out.resize(count);
+  WalkNeighbour* w = out.data();
+  WalkNeighbour* const end = w + count;
   const dw::DelaunayGraph& g = search_->graph();
   for (const dw::VertexNeighbour& vn : vertices) {
-    if (out.size() >= count) break;
+    if (w == end) break;
     const VertexRecord& r = vertex_[vn.vertex];
     if (r.cloud != kMixed && vn.inputs == 1) {
-      out.push_back({distance(q, r.xyz), r.cloud});
+      *w++ = {distance(q, r.xyz), r.cloud};
       continue;
     }
     const float shared = r.cloud != kMixed ? distance(q, r.xyz) : 0.f;
-    for (dw::index_t o = g.originals_offsets[vn.vertex];
-         o < g.originals_offsets[vn.vertex + 1] && out.size() < count; ++o) {
+    for (dw::index_t o = g.originals_offsets[vn.vertex]; o < g.originals_offsets[vn.vertex + 1] && w != end;
+         ++o) {
       const dw::index_t in = g.originals[o];
-      out.push_back({r.cloud != kMixed ? shared : callerDistance(q, in), cloudIndex(in)});
+      *w++ = {r.cloud != kMixed ? shared : callerDistance(q, in), cloudIndex(in)};
     }
   }
+  out.resize(static_cast<std::size_t>(w - out.data()));
 }
 
 bool CallerMetricSearch::nearest(const float q[3], dw::StartStrategy strategy, dw::index_t hint,
@@ -317,21 +327,26 @@ std::size_t CallerMetricSearch::radius(const float q[3], double radius, std::siz
   };
   if (limit == 0) {
     // By vertex, as knn(): caller coordinates from vertex_, in graph order.
-    search_->radiusVertices(ql, bound, nn, s.vertices);
+    // Sized once to every input found and written through a pointer: a push_back per point (its
+    // capacity check and call) was a visible share of the query in a profile.
+    out.resize(search_->radiusVertices(ql, bound, nn, s.vertices));
+    WalkNeighbour* w = out.data();
     const dw::DelaunayGraph& g = search_->graph();
     for (const dw::VertexNeighbour& vn : s.vertices) {
       const VertexRecord& rec = vertex_[vn.vertex];
       if (rec.cloud != kMixed && vn.inputs == 1) {
         const float d = distance(q, rec.xyz);
-        if (d < r2) out.push_back({d, rec.cloud});  // strict, as FLANN's radius result set
+        *w = {d, rec.cloud};
+        w += d < r2 ? 1 : 0;  // strict, as FLANN's radius result set
         continue;
       }
       for (dw::index_t o = g.originals_offsets[vn.vertex]; o < g.originals_offsets[vn.vertex + 1]; ++o) {
         const dw::index_t in = g.originals[o];
         const float d = rec.cloud != kMixed ? distance(q, rec.xyz) : callerDistance(q, in);
-        if (d < r2) out.push_back({d, cloudIndex(in)});
+        if (d < r2) *w++ = {d, cloudIndex(in)};
       }
     }
+    out.resize(static_cast<std::size_t>(w - out.data()));
   } else {
     search_->radius(ql, bound, nn, s.inputs, s.dist2, limit + 1);
     if (s.inputs.size() <= limit) {
