@@ -99,9 +99,13 @@ py::tuple nearest(const dw::NeighbourSearch& s, py::handle queries, py::handle h
   {
     py::gil_scoped_release release;
     const dw::DelaunayGraph& g = s.graph();
+    // flatten: dw::walk is called from many instantiations in this module, so GCC keeps it out of line
+    // here (a call, the result spilled to the stack, loads the inlined walk keeps in registers); the
+    // C++ loop it is compared with has it inlined. Inlining the walk and its edge scan into this one
+    // body gives the batch the same hot loop.
     dispatch(
         b,
-        [&](std::size_t i, const dw::Vec3f& ql, index_t hint, unsigned) {
+        [&](std::size_t i, const dw::Vec3f& ql, index_t hint, unsigned) __attribute__((flatten)) {
           const dw::WalkResult r = s.nearest(ql, b.strategy, hint);
           idx[i] = g.representative(r.vertex);
           d2[i] = r.dist2;
