@@ -9,6 +9,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "arrays.h"
@@ -59,19 +60,28 @@ void forEachQuery(const Batch& b, PerQuery&& per_query, Skip&& skip) {
     for (std::size_t i = 0; i < q.n; ++i) start[i] = hintVertex(b.hints[i]);
     order = dw::orderByStartVertex(start.data(), q.n, g.numVertices());
   }
-  dw::parallelFor(q.n, b.workers, [&](std::size_t begin, std::size_t end, unsigned w) {
+  const bool empty = g.numVertices() == 0;
+  // One block loop per hinted / not hinted, so that a batch without hints carries no hint branches.
+  auto block = [&](auto hinted_tag, std::size_t begin, std::size_t end, unsigned w) {
+    constexpr bool kHinted = decltype(hinted_tag)::value;
     for (std::size_t k = begin; k < end; ++k) {
-      const std::size_t i = grouped ? order[k] : k;
+      const std::size_t i = kHinted && grouped ? order[k] : k;
       // ICP-like sequences start at their hint, a cache miss on most queries: fetch it early.
-      if (b.hints && k + kPrefetchAhead < end)
+      if (kHinted && k + kPrefetchAhead < end)
         b.search.prefetchStart(hintVertex(b.hints[grouped ? order[k + kPrefetchAhead] : k + kPrefetchAhead]));
       const double x = q.at<T>(i, 0), y = q.at<T>(i, 1), z = q.at<T>(i, 2);
-      if (g.numVertices() == 0 || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
+      if (empty || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
         skip(i);
         continue;
       }
-      per_query(i, g.toLocal(x, y, z), b.hints ? hintVertex(b.hints[i]) : dw::kInvalidIndex, w);
+      per_query(i, g.toLocal(x, y, z), kHinted ? hintVertex(b.hints[i]) : dw::kInvalidIndex, w);
     }
+  };
+  dw::parallelFor(q.n, b.workers, [&](std::size_t begin, std::size_t end, unsigned w) {
+    if (b.hints)
+      block(std::true_type{}, begin, end, w);
+    else
+      block(std::false_type{}, begin, end, w);
   });
 }
 
