@@ -9,6 +9,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "arrays.h"
@@ -59,19 +60,28 @@ void forEachQuery(const Batch& b, PerQuery&& per_query, Skip&& skip) {
     for (std::size_t i = 0; i < q.n; ++i) start[i] = hintVertex(b.hints[i]);
     order = dw::orderByStartVertex(start.data(), q.n, g.numVertices());
   }
-  dw::parallelFor(q.n, b.workers, [&](std::size_t begin, std::size_t end, unsigned w) {
+  const bool empty = g.numVertices() == 0;
+  // One block loop per hinted / not hinted, so that a batch without hints carries no hint branches.
+  auto block = [&](auto hinted_tag, std::size_t begin, std::size_t end, unsigned w) {
+    constexpr bool kHinted = decltype(hinted_tag)::value;
     for (std::size_t k = begin; k < end; ++k) {
-      const std::size_t i = grouped ? order[k] : k;
+      const std::size_t i = kHinted && grouped ? order[k] : k;
       // ICP-like sequences start at their hint, a cache miss on most queries: fetch it early.
-      if (b.hints && k + kPrefetchAhead < end)
+      if (kHinted && k + kPrefetchAhead < end)
         b.search.prefetchStart(hintVertex(b.hints[grouped ? order[k + kPrefetchAhead] : k + kPrefetchAhead]));
       const double x = q.at<T>(i, 0), y = q.at<T>(i, 1), z = q.at<T>(i, 2);
-      if (g.numVertices() == 0 || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
+      if (empty || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
         skip(i);
         continue;
       }
-      per_query(i, g.toLocal(x, y, z), b.hints ? hintVertex(b.hints[i]) : dw::kInvalidIndex, w);
+      per_query(i, g.toLocal(x, y, z), kHinted ? hintVertex(b.hints[i]) : dw::kInvalidIndex, w);
     }
+  };
+  dw::parallelFor(q.n, b.workers, [&](std::size_t begin, std::size_t end, unsigned w) {
+    if (b.hints)
+      block(std::true_type{}, begin, end, w);
+    else
+      block(std::false_type{}, begin, end, w);
   });
 }
 
@@ -99,9 +109,13 @@ py::tuple nearest(const dw::NeighbourSearch& s, py::handle queries, py::handle h
   {
     py::gil_scoped_release release;
     const dw::DelaunayGraph& g = s.graph();
+    // flatten: dw::walk is called from many instantiations in this module, so GCC keeps it out of line
+    // here (a call, the result spilled to the stack, loads the inlined walk keeps in registers); the
+    // C++ loop it is compared with has it inlined. Inlining the walk and its edge scan into this one
+    // body gives the batch the same hot loop.
     dispatch(
         b,
-        [&](std::size_t i, const dw::Vec3f& ql, index_t hint, unsigned) {
+        [&](std::size_t i, const dw::Vec3f& ql, index_t hint, unsigned) __attribute__((flatten)) {
           const dw::WalkResult r = s.nearest(ql, b.strategy, hint);
           idx[i] = g.representative(r.vertex);
           d2[i] = r.dist2;
