@@ -163,3 +163,27 @@ def test_odometry_equals_cpp_and_tracks_a_drive(tmp_path):
     assert odo.map_stats["inserted"] - odo.map_stats["removed"] == odo.map_size
     with pytest.raises(ValueError, match="voxel"):
         dw.SlidingWindowOdometry(voxel=0)
+
+
+def test_concurrent_register_scan_calls_queue_up(yard):
+    import threading
+
+    map_points, poses, scans = yard
+    loc = dw.Localizer(map_points, constant_velocity=False, threads=1)
+    results, errors = [], []
+
+    def work():
+        try:
+            for _ in range(3):
+                results.append(loc.register_scan(scans[0], init=poses[0]))
+        except Exception as e:  # noqa: BLE001  (reported below)
+            errors.append(e)
+
+    threads = [threading.Thread(target=work) for _ in range(3)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors and len(results) == 9
+    for r in results:
+        np.testing.assert_array_equal(r.pose, results[0].pose)
