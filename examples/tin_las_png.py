@@ -1,6 +1,7 @@
-"""Triangulate a LAS tile's ground points and save a PNG of the TIN coloured by height.
+"""Triangulate a LAS tile's ground points and save a PNG of the TIN coloured by height; with a third
+argument, also write the TIN-linear DEM (cells of 1 coordinate unit) as a GeoTIFF with the tile's CRS, as dw_dem does.
 
-    . build/python/test_env.sh && $DW_PYTHON examples/tin_las_png.py [tile.las] [out.png]
+    . build/python/test_env.sh && $DW_PYTHON examples/tin_las_png.py [tile.las] [out.png] [dem.tif]
 
 Default tile: /work/shared/data/airborne/autzen_trim.las (or make one with build/apps/dw_lidar_gen).
 """
@@ -41,3 +42,12 @@ ax.set_ylabel(f"y - {centre[1]:.1f}")
 fig.colorbar(shade, ax=ax, label="z", shrink=0.8)
 fig.savefig(out, bbox_inches="tight")
 print(f"wrote {out}")
+
+if len(sys.argv) > 3 and dw.HAVE_GDAL:
+    t3 = time.perf_counter()
+    raster, gt = dw.raster_from_tin(local, 1.0, triangles=tris)
+    world_gt = (gt[0] + centre[0], gt[1], 0.0, gt[3] + centre[1], 0.0, gt[5])  # back to the tile's frame
+    r = dw.write_dem(sys.argv[3], raster + centre[2] * (raster != -9999), geotransform=world_gt,
+                     crs_wkt=dw.las_crs_wkt(path) or None)
+    print(f"wrote {sys.argv[3]}: {r['shape'][1]} x {r['shape'][0]} cells, {r['cells_set']} set, "
+          f"in {time.perf_counter() - t3:.3f} s")

@@ -1,10 +1,13 @@
 // The module _native of the package pcl_delaunay_walk: the library's errors as Python exceptions, then
-// one registration function per concept (graph, search, TIN + LAS, ICP).
+// one registration function per concept (graph, search, TIN + LAS, ICP, localization, DEM).
 #include <pybind11/pybind11.h>
 
 #include "bindings.h"
 #include "pcl_delaunay_walk/core/graph/types.h"
 #include "pcl_delaunay_walk/core/las/las_format.h"
+#ifdef DW_PY_WITH_GDAL
+#include "pcl_delaunay_walk/gdal/geotiff_writer.h"
+#endif
 
 namespace py = pybind11;
 
@@ -16,9 +19,17 @@ PYBIND11_MODULE(_native, m) {
   error.doc() = "Base of the library's errors (dw::Error); a RuntimeError.";
   py::register_exception<dw::GraphFileError>(m, "GraphFileError", error.ptr());
   py::register_exception<dw::las::LasError>(m, "LasError", error.ptr());
+#ifdef DW_PY_WITH_GDAL
+  py::register_exception<dw::gdal::RasterError>(m, "RasterError", error.ptr());
+  m.attr("HAVE_GDAL") = true;
+#else
+  m.attr("HAVE_GDAL") = false;
+#endif
   dw_py::bindGraph(m);
   dw_py::bindSearch(m);
   dw_py::bindTinLas(m);
+  dw_py::bindLocalization(m);
+  dw_py::bindDem(m);
 #ifdef DW_PY_WITH_PCL
   dw_py::bindIcp(m);
   m.attr("HAVE_ICP") = true;

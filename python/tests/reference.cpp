@@ -7,6 +7,12 @@
 //       builds the graph, then times REPEATS batches of nearest-neighbour queries (KD-ANN start) as a
 //       C++ user writes them: dw::parallelFor over the queries; prints the fastest batch's wall and
 //       process CPU seconds.
+//   dw_py_reference localize MAP.f32 point_to_point|point_to_plane none|huber|cauchy MAX_DIST VOXEL THREADS
+//                   SCAN.f32...
+//       dw::Localizer on the map, then one registerScan per scan (constant velocity); prints one line per
+//       frame: status, iterations, fitness and the 16 pose entries (row by row) as hexadecimal floats.
+//   dw_py_reference odometry VOXEL MAX_RANGE MAX_DIST THREADS SCAN.f32...
+//       dw::SlidingWindowOdometry over the scans, printed as for localize, then the final map size.
 // A .f32 file is raw little-endian float32 xyz triples.
 #include <chrono>
 #include <cstdio>
@@ -18,6 +24,8 @@
 #include <vector>
 
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
+#include "pcl_delaunay_walk/core/registration/localizer.h"
+#include "pcl_delaunay_walk/core/registration/sliding_window_odometry.h"
 #include "pcl_delaunay_walk/core/search/neighbour_search.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
 
@@ -80,6 +88,46 @@ int nearestBench(char** argv) {
   return 0;
 }
 
+void printFrame(const dw::FrameResult& r) {
+  std::printf("frame %d %d %a", int(r.status), r.iterations, r.fitness);
+  for (int k = 0; k < 16; ++k) std::printf(" %a", r.pose(k / 4, k % 4));
+  std::printf("\n");
+}
+
+int localizeRun(int argc, char** argv) {
+  const std::vector<float> map = readF32(argv[0]);
+  const std::string method = argv[1], kernel = argv[2];
+  dw::LocalizerOptions o;
+  o.icp.metric = method == "point_to_plane" ? dw::IcpMetric::PointToPlane : dw::IcpMetric::PointToPoint;
+  o.icp.kernel = kernel == "huber"    ? dw::RobustKernel::Huber
+                 : kernel == "cauchy" ? dw::RobustKernel::Cauchy
+                                      : dw::RobustKernel::None;
+  o.icp.max_correspondence_distance = std::strtod(argv[3], nullptr);
+  o.voxel = std::strtod(argv[4], nullptr);
+  o.num_threads = static_cast<unsigned>(std::atoi(argv[5]));
+  dw::Localizer loc(dw::PointView::fromFloat(map.data(), map.size() / 3), o);
+  for (int i = 6; i < argc; ++i) {
+    const std::vector<float> scan = readF32(argv[i]);
+    printFrame(loc.registerScan(dw::PointView::fromFloat(scan.data(), scan.size() / 3)));
+  }
+  return 0;
+}
+
+int odometryRun(int argc, char** argv) {
+  dw::OdometryOptions o;
+  o.voxel = std::strtod(argv[0], nullptr);
+  o.max_range = std::strtod(argv[1], nullptr);
+  o.icp.max_correspondence_distance = std::strtod(argv[2], nullptr);
+  o.num_threads = static_cast<unsigned>(std::atoi(argv[3]));
+  dw::SlidingWindowOdometry odo(o);
+  for (int i = 4; i < argc; ++i) {
+    const std::vector<float> scan = readF32(argv[i]);
+    printFrame(odo.registerScan(dw::PointView::fromFloat(scan.data(), scan.size() / 3)));
+  }
+  std::printf("map %zu\n", odo.map().size());
+  return 0;
+}
+
 #ifdef DW_PY_WITH_PCL
 template <typename P>
 int icpRun(char** argv, bool point_to_plane) {
@@ -132,6 +180,8 @@ int main(int argc, char** argv) {
   try {
     const std::string what = argc > 1 ? argv[1] : "";
     if (what == "nearest" && argc == 6) return nearestBench(argv + 2);
+    if (what == "localize" && argc >= 8) return localizeRun(argc - 2, argv + 2);
+    if (what == "odometry" && argc >= 6) return odometryRun(argc - 2, argv + 2);
 #ifdef DW_PY_WITH_PCL
     if (what == "icp" && argc == 25)
       return std::string(argv[4]) == "point_to_plane" ? icpRun<pcl::PointNormal>(argv + 2, true)
