@@ -33,9 +33,8 @@ struct MosaicResult {
 /// Where rank r's tile goes: "<out without .vrt>_tiles/<name>_r<r, 3 digits or more>.tif"; `relative`
 /// is the same path relative to the VRT's folder.
 inline std::string tilePath(const std::string& vrt, int r, std::string* relative = nullptr) {
-  const std::string stem = vrt.size() > 4 && vrt.compare(vrt.size() - 4, 4, ".vrt") == 0
-                               ? vrt.substr(0, vrt.size() - 4)
-                               : vrt;
+  const std::string stem =
+      vrt.size() > 4 && vrt.compare(vrt.size() - 4, 4, ".vrt") == 0 ? vrt.substr(0, vrt.size() - 4) : vrt;
   const std::size_t slash = stem.find_last_of('/');
   const std::string name = slash == std::string::npos ? stem : stem.substr(slash + 1);
   char num[16];

@@ -107,12 +107,12 @@ int main(int argc, char** argv) {
       return argv[++i];
     };
     try {
-      if (a == "-o" || a == "--output")
-        out = next();
+      if (a == "-o" || a == "--output") out = next();
 #ifdef DW_HAVE_GDAL
       else if (a == "--dem")
         dem.out = next();
-      else if (dw_apps::parseDemOption(a, [&]() -> const char* { return (next(), argv[i]); }, dem)) {
+      else if (dw_apps::parseDemOption(
+                   a, [&]() -> const char* { return (next(), argv[i]); }, dem)) {
         if (!dem.hillshade.empty() || dem.value != "z")
           throw std::invalid_argument(a + " (not with dw_tin_mpi)");
       }

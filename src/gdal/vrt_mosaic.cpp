@@ -68,15 +68,16 @@ std::string vrtMosaicXml(const dem::RasterGrid& grid, const std::vector<VrtBand>
   for (std::size_t i = 0; i < sorted.size(); ++i) {
     const VrtBand& b = sorted[i];
     if (b.rows == 0 || b.row_begin > grid.rows || b.rows > grid.rows - b.row_begin || b.path.empty())
-      throw RasterError("the VRT mosaic: the band " + b.path + " (rows " + std::to_string(b.row_begin) + " + " +
-                        std::to_string(b.rows) + ") is empty or leaves the grid's " +
+      throw RasterError("the VRT mosaic: the band " + b.path + " (rows " + std::to_string(b.row_begin) +
+                        " + " + std::to_string(b.rows) + ") is empty or leaves the grid's " +
                         std::to_string(grid.rows) + " rows");
     if (i > 0 && sorted[i - 1].row_begin + sorted[i - 1].rows > b.row_begin)
       throw RasterError("the VRT mosaic: the bands " + sorted[i - 1].path + " and " + b.path + " overlap");
   }
   const std::string type = options.float64 ? "Float64" : "Float32";
   const std::string cols = std::to_string(grid.cols);
-  std::string x = "<VRTDataset rasterXSize=\"" + cols + "\" rasterYSize=\"" + std::to_string(grid.rows) + "\">\n";
+  std::string x =
+      "<VRTDataset rasterXSize=\"" + cols + "\" rasterYSize=\"" + std::to_string(grid.rows) + "\">\n";
   x += srsElement(options.srs_wkt);
   x += "  <GeoTransform>" + exact(grid.west) + ", " + exact(grid.cell) + ", 0, " + exact(grid.north) +
        ", 0, " + exact(-grid.cell) + "</GeoTransform>\n";
@@ -87,11 +88,11 @@ std::string vrtMosaicXml(const dem::RasterGrid& grid, const std::vector<VrtBand>
     x += "    <SimpleSource>\n";
     x += "      <SourceFilename relativeToVRT=\"1\">" + xmlEscaped(b.path) + "</SourceFilename>\n";
     x += "      <SourceBand>1</SourceBand>\n";
-    x += "      <SourceProperties RasterXSize=\"" + cols + "\" RasterYSize=\"" + rows + "\" DataType=\"" + type +
-         "\"/>\n";
+    x += "      <SourceProperties RasterXSize=\"" + cols + "\" RasterYSize=\"" + rows + "\" DataType=\"" +
+         type + "\"/>\n";
     x += "      <SrcRect xOff=\"0\" yOff=\"0\" xSize=\"" + cols + "\" ySize=\"" + rows + "\"/>\n";
-    x += "      <DstRect xOff=\"0\" yOff=\"" + std::to_string(b.row_begin) + "\" xSize=\"" + cols + "\" ySize=\"" +
-         rows + "\"/>\n";
+    x += "      <DstRect xOff=\"0\" yOff=\"" + std::to_string(b.row_begin) + "\" xSize=\"" + cols +
+         "\" ySize=\"" + rows + "\"/>\n";
     x += "    </SimpleSource>\n";
   }
   x += "  </VRTRasterBand>\n</VRTDataset>\n";

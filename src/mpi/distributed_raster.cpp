@@ -118,7 +118,8 @@ RasterBand rasterizeBands(MPI_Comm comm, const RankTin& tin, const dem::RasterGr
   band.triangles = got.size();
   std::vector<double> x(3 * got.size()), y(3 * got.size()), v(3 * got.size());
   for (std::size_t k = 0; k < got.size(); ++k)
-    for (int j = 0; j < 3; ++j) x[3 * k + j] = got[k].x[j], y[3 * k + j] = got[k].y[j], v[3 * k + j] = got[k].v[j];
+    for (int j = 0; j < 3; ++j)
+      x[3 * k + j] = got[k].x[j], y[3 * k + j] = got[k].y[j], v[3 * k + j] = got[k].v[j];
   std::vector<index_t> idx(3 * got.size());
   std::iota(idx.begin(), idx.end(), index_t(0));
   band.values.resize((band.row_end - band.row_begin) * grid.cols);

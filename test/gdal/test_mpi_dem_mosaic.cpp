@@ -45,7 +45,8 @@ void expectSameGeoreferencing(const Raster& a, const Raster& b) {
   EXPECT_EQ(GDALGetRasterNoDataValue(GDALGetRasterBand(a.ds, 1), &ha),
             GDALGetRasterNoDataValue(GDALGetRasterBand(b.ds, 1), &hb));
   EXPECT_TRUE(ha && hb);
-  EXPECT_EQ(GDALGetRasterDataType(GDALGetRasterBand(a.ds, 1)), GDALGetRasterDataType(GDALGetRasterBand(b.ds, 1)));
+  EXPECT_EQ(GDALGetRasterDataType(GDALGetRasterBand(a.ds, 1)),
+            GDALGetRasterDataType(GDALGetRasterBand(b.ds, 1)));
   OGRSpatialReferenceH sa = GDALGetSpatialRef(a.ds), sb = GDALGetSpatialRef(b.ds);
   ASSERT_EQ(sa == nullptr, sb == nullptr);
   if (sa) {
@@ -65,7 +66,8 @@ void expectSameBits(const Raster& a, const Raster& b) {
 
 TEST(VrtMosaic, BandsOfGeoTiffsReadBackAsTheWholeRaster) {
   const std::string dir = dw_test::scratch("vrt");
-  const dw::dem::RasterGrid g = dw::dem::gridFromBounds(393700.5, 3689000, 393700.5 + 0.5 * 300, 3689000 + 0.5 * 70, 0.5);
+  const dw::dem::RasterGrid g =
+      dw::dem::gridFromBounds(393700.5, 3689000, 393700.5 + 0.5 * 300, 3689000 + 0.5 * 70, 0.5);
   std::vector<double> v(g.size());
   for (std::size_t i = 0; i < v.size(); ++i) v[i] = i % 13 == 0 ? -9999 : 3100 + 0.001 * double(i);
   dw::gdal::GeoTiffOptions o;

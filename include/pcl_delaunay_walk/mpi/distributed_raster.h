@@ -33,7 +33,7 @@ struct RasterBand {
   std::size_t row_begin = 0, row_end = 0;  ///< this rank's rows (rowBand)
   std::vector<double> values;              ///< (row_end - row_begin) * grid.cols cells, row by row
   dem::TinRasterStats stats;               ///< summed over all ranks
-  std::size_t triangles = 0;               ///< triangles this rank rasterised (some also in a neighbour's band)
+  std::size_t triangles = 0;  ///< triangles this rank rasterised (some also in a neighbour's band)
 };
 
 /// Collective: this rank's band of `grid` (in the triangulation frame, like tin.coords), the value of
