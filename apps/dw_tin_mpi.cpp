@@ -35,6 +35,7 @@ void usage() {
       "                  [--class C] [--threads T] [--verify] [--max-points N] [--quiet]\n"
       "                  [--inject fail|kill:STAGE:RANK]\n"
       "                  [--dem OUT.vrt --resolution R [--bounds X0 Y0 X1 Y1] [--max-edge L] [--nodata V]\n"
+      "                   [--value z|intensity]"
       "                   [--float64] [--compress C] [--cog]]\n"
       "  inputs      one LAS file or a pre-split set (several paths and/or --list FILE, one path per\n"
       "              line, relative to FILE's folder): their records in that order are the cloud; every\n"
@@ -47,7 +48,7 @@ void usage() {
       "  --max-points N  use only the first N records of the input (weak-scaling runs)\n"
       "  --dem OUT.vrt  also the TIN-linear DEM (dw_dem's options): each rank's row band as the\n"
       "              GeoTIFF OUT_tiles/OUT_r<rank>.tif, and rank 0 writes the GDAL VRT mosaic OUT.vrt\n"
-      "              (-o is then optional)\n"
+      "              (-o is then optional; --value intensity: the DEM only)\n"
       "  --inject    testing: make RANK fail (exception) or be killed at STAGE\n"
       "              (read, leaf, merge, write, dem)\n");
 }
@@ -113,8 +114,7 @@ int main(int argc, char** argv) {
         dem.out = next();
       else if (dw_apps::parseDemOption(
                    a, [&]() -> const char* { return (next(), argv[i]); }, dem)) {
-        if (!dem.hillshade.empty() || dem.value != "z")
-          throw std::invalid_argument(a + " (not with dw_tin_mpi)");
+        if (!dem.hillshade.empty()) throw std::invalid_argument(a + " (not with dw_tin_mpi)");
       }
 #else
       else if (a == "--dem")
@@ -158,6 +158,12 @@ int main(int argc, char** argv) {
   std::string dem_out;
 #ifdef DW_HAVE_GDAL
   dem_out = dem.out;
+  opt.intensity_as_z = !dem_out.empty() && dem.value == "intensity";
+  if (opt.intensity_as_z && !out.empty()) {
+    if (rank == 0) std::fprintf(stderr, "dw_tin_mpi: --value intensity writes the DEM only (no -o)\n");
+    MPI_Finalize();
+    return 2;
+  }
   if (!dem_out.empty() && !(dem.resolution > 0)) {
     if (rank == 0) std::fprintf(stderr, "dw_tin_mpi: --dem needs --resolution\n");
     MPI_Finalize();
