@@ -200,12 +200,14 @@ int main(int argc, char** argv) {
       } catch (const dw::gdal::RasterError& e) {
         if (rank == 0) std::fprintf(stderr, "warning: %s; the raster gets no coordinate system\n", e.what());
       }
+      const auto t2 = std::chrono::steady_clock::now();
       const dw_apps::MosaicResult m = dw_apps::writeDemMosaic(
           MPI_COMM_WORLD, dem, tin, wkt, std::max(1u, opt.num_threads), opt.inject_fault);
       if (rank == 0 && !quiet)
-        std::fprintf(stderr, "dem: raster %zu x %zu, cells set %zu, killed %zu, %zu tiles, wrote %s\n",
-                     m.grid.cols, m.grid.rows, m.stats.cells_set, m.stats.triangles_killed, m.tiles,
-                     dem_out.c_str());
+        std::fprintf(
+            stderr, "dem: raster %zu x %zu, cells set %zu, killed %zu, %zu tiles, %.2f s, wrote %s\n",
+            m.grid.cols, m.grid.rows, m.stats.cells_set, m.stats.triangles_killed, m.tiles,
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t2).count(), dem_out.c_str());
     }
 #endif
     tin.timings.write_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
