@@ -78,6 +78,39 @@ struct DemResult {
   double raster_s = 0, write_s = 0;
 };
 
+/// The raster's grid: `--bounds`, or the aligned grid covering the world box [lo, hi] of the points.
+/// Refuses a grid that cannot be held in memory as doubles (GDAL also takes int sizes).
+inline dw::dem::RasterGrid demGrid(const DemOptions& d, const double lo[2], const double hi[2]) {
+  const dw::dem::RasterGrid grid =
+      d.has_bounds ? dw::dem::gridFromBounds(d.bounds[0], d.bounds[1], d.bounds[2], d.bounds[3], d.resolution)
+                   : dw::dem::alignedGridCovering(lo[0], lo[1], hi[0], hi[1], d.resolution);
+  if (grid.cols > 2147483647u || grid.rows > 2147483647u || grid.size() > (std::size_t(1) << 32))
+    throw dw::Error(
+        "a raster of " + std::to_string(grid.cols) + " x " + std::to_string(grid.rows) +
+        " cells is too large to hold in memory (at most 2^32 cells); choose a coarser --resolution "
+        "or smaller --bounds");
+  return grid;
+}
+
+/// The same cells in the triangulation frame, computed in one place so that every tool samples a
+/// cell at bit for bit the same point.
+inline dw::dem::RasterGrid frameGrid(const dw::dem::RasterGrid& grid, const Frame& frame) {
+  dw::dem::RasterGrid f = grid;
+  f.west = (grid.west - frame.off_x) / frame.k;
+  f.north = (grid.north - frame.off_y) / frame.k;
+  f.cell = grid.cell / frame.k;
+  return f;
+}
+
+/// The rasteriser's options in the frame's units.
+inline dw::dem::TinRasterOptions rasterOptions(const DemOptions& d, const Frame& frame, unsigned threads) {
+  dw::dem::TinRasterOptions ro;
+  ro.max_edge = d.max_edge / frame.k;
+  ro.nodata = d.tiff.nodata;
+  ro.num_threads = threads;
+  return ro;
+}
+
 /// Rasterises `tin` of the frame points (fx, fy) with per-point `value`s on the grid of `d` (or the
 /// aligned grid covering the world box [lo, hi]), then writes the GeoTIFF (and the hillshade first, so
 /// that a failing preview keeps an existing DEM), with the CRS `srs_wkt`.
@@ -89,24 +122,10 @@ inline DemResult writeDem(const DemOptions& d, const Frame& frame, const std::ve
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();
   DemResult res;
-  res.grid = d.has_bounds
-                 ? dw::dem::gridFromBounds(d.bounds[0], d.bounds[1], d.bounds[2], d.bounds[3], d.resolution)
-                 : dw::dem::alignedGridCovering(lo[0], lo[1], hi[0], hi[1], d.resolution);
+  res.grid = demGrid(d, lo, hi);
   const dw::dem::RasterGrid& grid = res.grid;
-  // The raster is held in memory as doubles (and GDAL takes int sizes): refuse what cannot fit.
-  if (grid.cols > 2147483647u || grid.rows > 2147483647u || grid.size() > (std::size_t(1) << 32))
-    throw dw::Error(
-        "a raster of " + std::to_string(grid.cols) + " x " + std::to_string(grid.rows) +
-        " cells is too large to hold in memory (at most 2^32 cells); choose a coarser --resolution "
-        "or smaller --bounds");
-  dw::dem::RasterGrid fgrid = grid;  // the same cells in the frame
-  fgrid.west = (grid.west - frame.off_x) / frame.k;
-  fgrid.north = (grid.north - frame.off_y) / frame.k;
-  fgrid.cell = grid.cell / frame.k;
-  dw::dem::TinRasterOptions ro;
-  ro.max_edge = d.max_edge / frame.k;
-  ro.nodata = d.tiff.nodata;
-  ro.num_threads = threads;
+  const dw::dem::RasterGrid fgrid = frameGrid(grid, frame);
+  dw::dem::TinRasterOptions ro = rasterOptions(d, frame, threads);
   if (progress) ro.progress = [&](double f) { progress("raster", f); };
   const std::vector<double> raster = dw::dem::rasterizeTin(fx.data(), fy.data(), value.data(), fx.size(),
                                                            tin.triangles, fgrid, ro, &res.stats);

@@ -3,6 +3,7 @@
 ///   mpirun -np N dw_tin_mpi input.las -o PREFIX        (pieces PREFIX.rank<r>.ply + PREFIX.manifest.json)
 ///   mpirun -np N dw_tin_mpi a.las b.las ... -o PREFIX  (or --list files.txt: the files' records in order)
 ///   mpirun -np N dw_tin_mpi input.las --gather -o out.ply
+///   mpirun -np N dw_tin_mpi input.las --dem out.vrt --resolution R  (tiles out_tiles/out_r<r>.tif + VRT)
 /// Exit status: 0 success; 1 bad input or a failing rank (all ranks are aborted, no manifest); 2 usage;
 /// 3 --verify found a difference from the single-process triangulation.
 #include <mpi.h>
@@ -15,6 +16,11 @@
 #include <string>
 
 #include "mpi/fault_injection.h"
+#ifdef DW_HAVE_GDAL
+#include "dem_mosaic.h"
+#include "pcl_delaunay_walk/core/las/las_crs.h"
+#include "pcl_delaunay_walk/gdal/las_srs.h"
+#endif
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/mpi/distributed_tin.h"
@@ -28,6 +34,9 @@ void usage() {
       "usage: mpirun -np N dw_tin_mpi input.las [more.las ...] [--list FILE] -o PREFIX|out.ply [--gather]\n"
       "                  [--class C] [--threads T] [--verify] [--max-points N] [--quiet]\n"
       "                  [--inject fail|kill:STAGE:RANK]\n"
+      "                  [--dem OUT.vrt --resolution R [--bounds X0 Y0 X1 Y1] [--max-edge L] [--nodata V]\n"
+      "                   [--value z|intensity]"
+      "                   [--float64] [--compress C] [--cog]]\n"
       "  inputs      one LAS file or a pre-split set (several paths and/or --list FILE, one path per\n"
       "              line, relative to FILE's folder): their records in that order are the cloud; every\n"
       "              rank reads only its own range of them\n"
@@ -37,8 +46,11 @@ void usage() {
       "  --threads T threads per rank for the local triangulations (default 1)\n"
       "  --verify    rank 0 also runs the single-process dw::tin::triangulate and compares\n"
       "  --max-points N  use only the first N records of the input (weak-scaling runs)\n"
+      "  --dem OUT.vrt  also the TIN-linear DEM (dw_dem's options): each rank's row band as the\n"
+      "              GeoTIFF OUT_tiles/OUT_r<rank>.tif, and rank 0 writes the GDAL VRT mosaic OUT.vrt\n"
+      "              (-o is then optional; --value intensity: the DEM only)\n"
       "  --inject    testing: make RANK fail (exception) or be killed at STAGE\n"
-      "              (read, leaf, merge, write)\n");
+      "              (read, leaf, merge, write, dem)\n");
 }
 
 std::array<dw::index_t, 3> canonical(const dw::index_t* t) {
@@ -81,6 +93,9 @@ int main(int argc, char** argv) {
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   dw::mpi::DistributedTinOptions opt;
   std::string out;
+#ifdef DW_HAVE_GDAL
+  dw_apps::DemOptions dem;
+#endif
   bool gather = false, check = false, quiet = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -93,8 +108,18 @@ int main(int argc, char** argv) {
       return argv[++i];
     };
     try {
-      if (a == "-o" || a == "--output")
-        out = next();
+      if (a == "-o" || a == "--output") out = next();
+#ifdef DW_HAVE_GDAL
+      else if (a == "--dem")
+        dem.out = next();
+      else if (dw_apps::parseDemOption(
+                   a, [&]() -> const char* { return (next(), argv[i]); }, dem)) {
+        if (!dem.hillshade.empty()) throw std::invalid_argument(a + " (not with dw_tin_mpi)");
+      }
+#else
+      else if (a == "--dem")
+        throw std::invalid_argument(a + " (dw_tin_mpi was built without GDAL)");
+#endif
       else if (a == "--gather")
         gather = true;
       else if (a == "--class")
@@ -130,7 +155,22 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (opt.inputs.empty() || out.empty()) {
+  std::string dem_out;
+#ifdef DW_HAVE_GDAL
+  dem_out = dem.out;
+  opt.intensity_as_z = !dem_out.empty() && dem.value == "intensity";
+  if (opt.intensity_as_z && !out.empty()) {
+    if (rank == 0) std::fprintf(stderr, "dw_tin_mpi: --value intensity writes the DEM only (no -o)\n");
+    MPI_Finalize();
+    return 2;
+  }
+  if (!dem_out.empty() && !(dem.resolution > 0)) {
+    if (rank == 0) std::fprintf(stderr, "dw_tin_mpi: --dem needs --resolution\n");
+    MPI_Finalize();
+    return 2;
+  }
+#endif
+  if (opt.inputs.empty() || (out.empty() && dem_out.empty())) {
     if (rank == 0) usage();
     MPI_Finalize();
     return 2;
@@ -141,15 +181,35 @@ int main(int argc, char** argv) {
   int status = 0;
   try {
     // A manifest from an earlier run must not survive a failing one.
-    if (rank == 0 && !gather) std::remove((out + ".manifest.json").c_str());
+    if (rank == 0 && !gather && !out.empty()) std::remove((out + ".manifest.json").c_str());
     MPI_Barrier(MPI_COMM_WORLD);
     const auto t0 = std::chrono::steady_clock::now();
     dw::mpi::RankTin tin = dw::mpi::triangulateDistributed(MPI_COMM_WORLD, opt);
     const auto t1 = std::chrono::steady_clock::now();
-    if (gather)
+    if (out.empty()) {
+    } else if (gather) {
       dw::mpi::writeGathered(MPI_COMM_WORLD, out, tin, opt);
-    else
+    } else {
       dw::mpi::writePiecesAndManifest(MPI_COMM_WORLD, out, tin, opt);
+    }
+#ifdef DW_HAVE_GDAL
+    if (!dem_out.empty()) {
+      std::string wkt;
+      try {
+        wkt = dw::gdal::srsWktFromLas(dw::las::readLasCrs(opt.inputs[0]));
+      } catch (const dw::gdal::RasterError& e) {
+        if (rank == 0) std::fprintf(stderr, "warning: %s; the raster gets no coordinate system\n", e.what());
+      }
+      const auto t2 = std::chrono::steady_clock::now();
+      const dw_apps::MosaicResult m = dw_apps::writeDemMosaic(
+          MPI_COMM_WORLD, dem, tin, wkt, std::max(1u, opt.num_threads), opt.inject_fault);
+      if (rank == 0 && !quiet)
+        std::fprintf(
+            stderr, "dem: raster %zu x %zu, cells set %zu, killed %zu, %zu tiles, %.2f s, wrote %s\n",
+            m.grid.cols, m.grid.rows, m.stats.cells_set, m.stats.triangles_killed, m.tiles,
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t2).count(), dem_out.c_str());
+    }
+#endif
     tin.timings.write_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 

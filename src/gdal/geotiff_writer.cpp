@@ -53,6 +53,7 @@ struct GeoTiffWriter::Impl {
   TemporaryOutput out;        // the file renamed into place
   TemporaryOutput tiled;      // COG only: the tiled GeoTIFF the COG is copied from
   GDALDatasetH ds = nullptr;  // open on tiled (COG) or out (GeoTIFF)
+  bool finished = false;      // out holds the complete raster
   Impl(const std::string& path, const dem::RasterGrid& g, const GeoTiffOptions& o)
       : grid(g), options(o), out(path), tiled(path) {}
   const std::string& writtenPath() const { return options.cog ? tiled.path() : out.path(); }
@@ -125,7 +126,7 @@ void GeoTiffWriter::writeRows(std::size_t row_begin, std::size_t num_rows, const
     throw RasterError(m.out.target() + ": GDAL cannot write rows: " + GdalSession::lastError());
 }
 
-void GeoTiffWriter::commit() {
+void GeoTiffWriter::finish() {
   Impl& m = *impl_;
   if (!m.ds) throw RasterError(m.out.target() + ": the raster is already closed");
   GdalSession session;
@@ -160,6 +161,13 @@ void GeoTiffWriter::commit() {
     }
     m.tiled.discard();
   }
+  m.finished = true;
+}
+
+void GeoTiffWriter::commit() {
+  Impl& m = *impl_;
+  if (!m.finished) finish();
+  m.finished = false;  // a second commit finds the raster closed
   try {
     m.out.commit();
   } catch (const Error& e) {

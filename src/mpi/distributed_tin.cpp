@@ -97,7 +97,7 @@ std::vector<PointRecord> readRecords(MPI_Comm comm, const DistributedTinOptions&
   mine.reserve(last - first);
   input.forEach(first, last, [&](const las::LasRecord& r, double x, double y, double z) {
     if (options.classification >= 0 && r.classification != options.classification) return;
-    mine.push_back({x, y, z, 0});
+    mine.push_back({x, y, options.intensity_as_z ? double(r.intensity) : z, 0});
   });
   // Global indices count kept records in file order, exactly as the single-process reader does.
   const collective::RankRange kept = collective::rankRange(comm, mine.size());

@@ -44,8 +44,12 @@ class GeoTiffWriter {
 
   /// Rows [row_begin, row_begin + num_rows), grid.cols values each, row after row.
   void writeRows(std::size_t row_begin, std::size_t num_rows, const double* values);
-  /// Flushes and closes the file (for a COG: builds it from the tiled file), then renames it over
-  /// `path`. Throws RasterError, leaving `path` as it was, when any step fails.
+  /// Flushes and closes the temporary file (for a COG: builds it from the tiled file), leaving `path`
+  /// as it was; commit() then only renames. Writers of parts of one raster (the MPI ranks' tiles)
+  /// finish all parts before any replaces its target. Throws RasterError when GDAL fails.
+  void finish();
+  /// finish() unless done, then renames the file over `path`. Throws RasterError, leaving `path` as it
+  /// was, when any step fails.
   void commit();
   /// The temporary file being written (for tests).
   const std::string& temporaryPath() const;

@@ -26,6 +26,9 @@ struct DistributedTinOptions {
   int classification = -1;        ///< keep only this class; -1: all (global indices count kept points)
   unsigned num_threads = 1;       ///< threads per rank for the local triangulations
   std::uint64_t max_records = 0;  ///< use only the first max_records records (0: all); for weak scaling
+  /// What each point carries as its z (never used by the triangulation, which sees x and y only): the
+  /// world z, or the LAS intensity (for a raster of intensities; the pieces then hold it as z).
+  bool intensity_as_z = false;
   /// Progress lines (called on rank 0 only).
   std::function<void(const std::string&)> progress;
   /// Testing hook: fail or die on one rank at one stage ("read", "leaf", "merge", "write"): "fail:STAGE:RANK"
