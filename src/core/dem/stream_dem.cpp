@@ -58,6 +58,7 @@ struct StreamDem::Impl {
   double hist_lo = 0, hist_hi = 0;
   std::vector<std::uint64_t> hist;
   detail::Hull hull;
+  std::vector<double> core_x, core_y;  // see insideCore
   RasterGrid grid, fgrid;
   std::vector<double> seams;  // descending; strip s: seams[s] <= y < seams[s - 1]
   StreamDemStats stats;
@@ -139,6 +140,7 @@ struct StreamDem::Impl {
       lo[0] = std::min(lo[0], wx), hi[0] = std::max(hi[0], wx);
       lo[1] = std::min(lo[1], wy), hi[1] = std::max(hi[1], wy);
       hist[bin(fy)]++;
+      if (insideCore(fx, fy)) return;
       hx.push_back(fx), hy.push_back(fy);
       if (hx.size() >= (1u << 16)) foldHull(hx, hy);
     });
@@ -163,6 +165,32 @@ struct StreamDem::Impl {
     hy.insert(hy.end(), hull.y.begin(), hull.y.end());
     hull = detail::convexHull(hx.data(), hy.data(), hx.size());
     hx.clear(), hy.clear();
+    // The hull's extreme vertices in eight directions, counter-clockwise: a polygon inside the hull.
+    core_x.clear(), core_y.clear();
+    for (int d = 0; d < 8 && hull.x.size() >= 3; ++d) {
+      const double cx = std::cos(d * 0.7853981633974483), cy = std::sin(d * 0.7853981633974483);
+      std::size_t best = 0;
+      for (std::size_t i = 1; i < hull.x.size(); ++i)
+        if (hull.x[i] * cx + hull.y[i] * cy > hull.x[best] * cx + hull.y[best] * cy) best = i;
+      if (core_x.empty() || core_x.back() != hull.x[best] || core_y.back() != hull.y[best])
+        core_x.push_back(hull.x[best]), core_y.push_back(hull.y[best]);
+    }
+  }
+
+  /// Whether (x, y) lies inside the core polygon by a margin far above rounding: then it is inside the
+  /// hull of the points so far and cannot be a vertex of any later hull (it only skips work).
+  bool insideCore(double x, double y) const {
+    const std::size_t m = core_x.size();
+    if (m < 3) return false;
+    for (std::size_t i = 0; i < m; ++i) {
+      const std::size_t j = (i + 1) % m;
+      const double ex = core_x[j] - core_x[i], ey = core_y[j] - core_y[i];
+      const double wx = x - core_x[i], wy = y - core_y[i];
+      const double slack = 1e-9 * (std::fabs(ex) + std::fabs(ey)) *
+                           (std::fabs(core_x[i]) + std::fabs(core_y[i]) + std::fabs(x) + std::fabs(y) + 1.0);
+      if (!(ex * wy - ey * wx > slack)) return false;
+    }
+    return true;
   }
 
   void plan() {
