@@ -4,7 +4,7 @@
 /// carrying the file's coordinate system (docs/dem.md).
 ///   dw_dem input.{las,laz} [more tiles ...] -o out.tif --resolution R [--class C]
 ///          [--bounds xmin ymin xmax ymax] [--max-edge L] [--value z|intensity] [--cog]
-///          [--hillshade out.png] [--threads N] ...
+///          [--hillshade out.png] [--threads N] [--stream [--memory-limit MB]] ...
 #include <algorithm>
 #include <chrono>
 #include <cmath>
