@@ -4,7 +4,7 @@
 /// carrying the file's coordinate system (docs/dem.md).
 ///   dw_dem input.{las,laz} [more tiles ...] -o out.tif --resolution R [--class C]
 ///          [--bounds xmin ymin xmax ymax] [--max-edge L] [--value z|intensity] [--cog]
-///          [--hillshade out.png] [--threads N] ...
+///          [--hillshade out.png] [--threads N] [--stream [--memory-limit MB]] ...
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -17,6 +17,7 @@
 #include "app_args.h"
 #include "core/util/process_memory.h"
 #include "dem_stage.h"
+#include "pcl_delaunay_walk/core/dem/stream_dem.h"
 #include "pcl_delaunay_walk/core/las/las_crs.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
@@ -44,6 +45,8 @@ void usage() {
       "  --hillshade OUT.png  also write a hillshade preview\n"
       "  --threads N          threads (default: all cores)\n"
       "  --certify            check the TIN with the exact Delaunay certificate first\n"
+      "  --stream             read strip by strip from north to south, holding only the open band\n"
+      "  --memory-limit MB    with --stream: the strips' memory (default 1024), sets their height\n"
       "  --quiet              no progress output\n");
 }
 
@@ -54,7 +57,8 @@ double since(std::chrono::steady_clock::time_point t) {
 struct Arguments {
   std::vector<std::string> inputs;  ///< tiles of one survey, triangulated as one cloud
   int cls = -1;
-  bool certify = false, quiet = false, help = false;
+  bool certify = false, quiet = false, help = false, stream = false;
+  std::size_t memory_limit_mb = 1024;
   unsigned threads = 0;
   dw_apps::DemOptions dem;
 };
@@ -79,6 +83,12 @@ Arguments parseArguments(int argc, char** argv) {
       const auto v = dw_apps::parseList(value(), "thread count", 1, 4096);
       if (v.size() != 1) throw dw::Error("--threads takes one count");
       a.threads = v[0];
+    } else if (s == "--stream") {
+      a.stream = true;
+    } else if (s == "--memory-limit") {
+      const auto v = dw_apps::parseList(value(), "memory limit in MB", 1, 1 << 24);
+      if (v.size() != 1) throw dw::Error("--memory-limit takes one size in MB");
+      a.memory_limit_mb = v[0];
     } else if (s == "--certify") {
       a.certify = true;
     } else if (s == "--quiet") {
@@ -96,6 +106,8 @@ Arguments parseArguments(int argc, char** argv) {
   if (a.dem.out.empty()) throw dw::Error("no output file (-o out.tif)");
   if (!(a.dem.resolution > 0)) throw dw::Error("no --resolution given");
   a.threads = dw::resolveThreads(a.threads);
+  if (a.stream && (!a.dem.hillshade.empty() || a.certify))
+    throw dw::Error("--stream does not take --hillshade or --certify (they need the whole raster or TIN)");
   return a;
 }
 
@@ -242,6 +254,58 @@ int run(const Arguments& a) {
   return 0;
 }
 
+/// --stream: the strips, their final rows written as they come (docs/dem.md "Beyond memory").
+int runStream(const Arguments& a) {
+  const auto t0 = std::chrono::steady_clock::now();
+  dw::dem::StreamDemOptions o;
+  o.inputs = a.inputs;
+  o.classification = a.cls;
+  o.intensity = a.dem.value == "intensity";
+  o.resolution = a.dem.resolution;
+  o.has_bounds = a.dem.has_bounds;
+  std::copy(a.dem.bounds, a.dem.bounds + 4, o.bounds);
+  o.max_edge = a.dem.max_edge;
+  o.nodata = a.dem.tiff.nodata;
+  o.memory_limit_mb = a.memory_limit_mb;
+  o.threads = a.threads;
+  std::function<void(const dw::dem::StreamDemProgress&)> show;
+  std::size_t rows_written = 0;
+  if (!a.quiet)
+    show = [&](const dw::dem::StreamDemProgress& p) {
+      static double last = -1;
+      const bool end = p.points_read >= p.points_total;
+      if (p.elapsed_s - last < 1.0 && !end) return;
+      last = p.elapsed_s;
+      std::fprintf(stderr,
+                   "\r  %-6s points %llu of %llu  strips %zu of %zu  rows %zu of %zu  %.2f M points/s  left "
+                   "%.0f s   %s",
+                   p.stage, (unsigned long long)p.points_read, (unsigned long long)p.points_total,
+                   p.strips_done, p.strips, rows_written, p.rows, p.rate / 1e6, p.left_s, end ? "\n" : "");
+    };
+  dw::dem::StreamDem dem(o, show);
+  const dw::dem::RasterGrid& grid = dem.grid();
+  dw::gdal::GeoTiffOptions tiff = a.dem.tiff;
+  tiff.srs_wkt = crsOf(a);
+  tiff.num_threads = a.threads;
+  dw::gdal::GeoTiffWriter writer(a.dem.out, grid, tiff);
+  const dw::dem::StreamDemStats st = dem.run([&](std::size_t r, std::size_t k, const double* v) {
+    writer.writeRows(r, k, v);
+    rows_written = r + k;
+  });
+  writer.commit();
+  const long peak = dw::processStatusKb("VmHWM:");
+  std::printf(
+      "points %llu  triangles %llu  killed %zu  raster %zu x %zu (%.6g units)  cells set %zu of %zu\n",
+      (unsigned long long)st.points, (unsigned long long)st.triangles, st.raster.triangles_killed, grid.cols,
+      grid.rows, grid.cell, st.raster.cells_set, grid.size());
+  std::printf("strips %zu (largest %zu points)  resident at most %zu points  rows held at most %zu\n",
+              st.strips, st.max_strip_points, st.max_resident, st.max_rows_held);
+  std::printf("threads %u  scan %.3f s  spill %.3f s  strips %.3f s  total %.3f s\n", a.threads, st.scan_s,
+              st.spill_s, st.strips_s, since(t0));
+  std::printf("peak memory %.1f MB  wrote %s\n", peak / 1024.0, a.dem.out.c_str());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -252,7 +316,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     progress.on = !args.quiet;
-    return run(args);
+    return args.stream ? runStream(args) : run(args);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "\ndw_dem: %s\n", e.what());
     return 1;

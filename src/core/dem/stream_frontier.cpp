@@ -78,6 +78,22 @@ void splitFinalTriangles(const double* x, const double* y, const index_t* t, std
   }
 }
 
+bool laterPointsMayLieRightOf(double ax, double ay, double bx, double by, double seam, const Hull* hull) {
+  if (seam == -HUGE_VAL) return false;
+  if (!hull) return true;
+  const Hull below = clipBelow(*hull, seam);
+  const double ex = bx - ax, ey = by - ay;
+  const double len = std::hypot(ex, ey);
+  for (std::size_t i = 0; i < below.x.size(); ++i) {
+    const double wx = below.x[i] - ax, wy = below.y[i] - ay;
+    // The clip's vertices are rounded: a relative 1e-9 of the magnitudes is far above that.
+    const double slack =
+        1e-9 * len * (std::fabs(ax) + std::fabs(ay) + std::fabs(below.x[i]) + std::fabs(below.y[i]) + len);
+    if (ex * wy - ey * wx <= slack) return true;
+  }
+  return false;
+}
+
 Hull convexHull(const double* x, const double* y, std::size_t n) {
   std::vector<index_t> order;
   order.reserve(n);

@@ -36,6 +36,12 @@ void splitFinalTriangles(const double* x, const double* y, const index_t* triang
                          double seam, const Hull* hull, std::vector<index_t>& final_out,
                          std::vector<index_t>& open_out);
 
+/// Whether a point still to come (y < seam, inside `hull` when given) may lie in the closed half-plane
+/// right of the directed line a -> b: the outside of a hull edge whose interior is on its left. False
+/// means the edge stays a hull edge for ever and no later point connects to it from outside.
+/// Conservative (true when in doubt); seam = -HUGE_VAL: false.
+bool laterPointsMayLieRightOf(double ax, double ay, double bx, double by, double seam, const Hull* hull);
+
 /// The convex hull of the points (Andrew's monotone chain with the exact orient2d); NaN/Inf skipped.
 /// Fewer than three vertices when the points are collinear (then no centre is ever inside).
 Hull convexHull(const double* x, const double* y, std::size_t n);

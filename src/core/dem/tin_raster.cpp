@@ -6,6 +6,7 @@
 #include <cmath>
 #include <string>
 
+#include "core/dem/owned_cells.h"
 #include "core/dem/ownership.h"
 #include "pcl_delaunay_walk/core/geometry/predicates_2d.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
@@ -58,7 +59,7 @@ inline bool rowSpan(const Corner* t, double py, double& lo, double& hi) {
 
 /// One triangle's cells in rows [row_begin, row_end); returns how many it set.
 std::size_t rasterizeTriangle(const Corner* t, const double* val, const RasterGrid& g, std::size_t row_begin,
-                              std::size_t row_end, double* out) {
+                              std::size_t row_end, double* out, unsigned char* owned = nullptr) {
   const double xmin = std::min({t[0].x, t[1].x, t[2].x}), xmax = std::max({t[0].x, t[1].x, t[2].x});
   const double ymin = std::min({t[0].y, t[1].y, t[2].y}), ymax = std::max({t[0].y, t[1].y, t[2].y});
   std::ptrdiff_t r0, r1, c0, c1;
@@ -69,7 +70,7 @@ std::size_t rasterizeTriangle(const Corner* t, const double* val, const RasterGr
   // Barycentric weights relative to corner 0; the determinant is > 0 (checked exactly by the caller).
   const double bx = t[1].x - t[0].x, by = t[1].y - t[0].y, cx = t[2].x - t[0].x, cy = t[2].y - t[0].y;
   const double inv_det = 1.0 / (bx * cy - by * cx);
-  const double db = val[1] - val[0], dc = val[2] - val[0];
+  const double db = val ? val[1] - val[0] : 0, dc = val ? val[2] - val[0] : 0;
   std::size_t set = 0;
   for (std::ptrdiff_t r = r0; r <= r1; ++r) {
     const double py = g.centreY(std::size_t(r));
@@ -86,6 +87,10 @@ std::size_t rasterizeTriangle(const Corner* t, const double* val, const RasterGr
       const double px = g.centreX(std::size_t(c));
       if (!ownsEdge(t[0], t[1], px, py) || !ownsEdge(t[1], t[2], px, py) || !ownsEdge(t[2], t[0], px, py))
         continue;
+      if (owned) {
+        owned[(std::size_t(r) - row_begin) * g.cols + std::size_t(c)] = 1;
+        if (!val) continue;  // a killed triangle owns its cells but leaves them nodata
+      }
       const double ux = px - t[0].x, uy = py - t[0].y;
       const double wb = (ux * cy - uy * cx) * inv_det, wc = (bx * uy - by * ux) * inv_det;
       row[c] = val[0] + wb * db + wc * dc;
@@ -152,6 +157,37 @@ TinRasterStats rasterizeTinRows(const double* x, const double* y, const double* 
   }
   if (options.progress) options.progress(1.0);
   return total;
+}
+
+TinRasterStats rasterizeOwnedCells(const double* x, const double* y, const double* value, std::size_t n,
+                                   const index_t* triangles, std::size_t num_indices, const RasterGrid& grid,
+                                   std::size_t row_begin, std::size_t row_end, double* out,
+                                   unsigned char* owned, double max_edge) {
+  TinRasterStats s;
+  if (row_begin >= row_end) return s;
+  const double max_edge2 = max_edge > 0 ? max_edge * max_edge : HUGE_VAL;
+  for (std::size_t k = 0; k + 2 < num_indices; k += 3) {
+    const index_t* v = triangles + k;
+    if (v[0] >= n || v[1] >= n || v[2] >= n) throw Error("rasterizeOwnedCells: vertex index out of range");
+    // The same rotation, kill test and arithmetic as rasterizeTinRows: the cells come out bit for bit.
+    const int f = v[0] < v[1] ? (v[0] < v[2] ? 0 : 2) : (v[1] < v[2] ? 1 : 2);
+    const index_t i[3] = {v[f], v[(f + 1) % 3], v[(f + 2) % 3]};
+    const Corner t[3] = {{x[i[0]], y[i[0]]}, {x[i[1]], y[i[1]]}, {x[i[2]], y[i[2]]}};
+    bool killed = false;
+    for (int j = 0; j < 3; ++j) {
+      const double dx = t[(j + 1) % 3].x - t[j].x, dy = t[(j + 1) % 3].y - t[j].y;
+      killed = killed || dx * dx + dy * dy > max_edge2;
+    }
+    if (pred::orient2d(t[0].x, t[0].y, t[1].x, t[1].y, t[2].x, t[2].y) <= 0) continue;
+    const double val[3] = {value[i[0]], value[i[1]], value[i[2]]};
+    const std::size_t set =
+        rasterizeTriangle(t, killed ? nullptr : val, grid, row_begin, row_end, out, owned);
+    if (killed)
+      ++s.triangles_killed;
+    else
+      s.cells_set += set;
+  }
+  return s;
 }
 
 std::vector<double> rasterizeTin(const double* x, const double* y, const double* value, std::size_t n,

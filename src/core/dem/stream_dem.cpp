@@ -1,0 +1,295 @@
+/// \file stream_dem.cpp
+/// \brief The streaming DEM's passes (see stream_dem.h): scan, spill into strips, strips in order.
+#include "pcl_delaunay_walk/core/dem/stream_dem.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include "core/dem/stream_frontier.h"
+#include "core/dem/stream_raster.h"
+#include "core/dem/stream_tin.h"
+#include "pcl_delaunay_walk/core/las/las_reader.h"
+
+namespace dw {
+namespace dem {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using las::LasHeader;
+using las::LasReader;
+using las::LasRecord;
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+/// Bytes a strip's point costs at its peak: the in-memory TIN's ~72 bytes and its input copy, the
+/// merged arrays, the triangles, the edge index and the labels (docs/dem.md "Beyond memory").
+constexpr std::size_t kBytesPerStripPoint = 260;
+constexpr std::size_t kHistogramBins = 1 << 16;
+constexpr std::size_t kMaxStrips = 512;  // one open spill file each
+
+/// One spilled point: 32 bytes.
+struct SpillRecord {
+  std::uint64_t index;
+  double x, y, value;
+};
+
+struct Spill {
+  std::FILE* f = nullptr;
+  std::uint64_t count = 0;
+  ~Spill() {
+    if (f) std::fclose(f);
+  }
+};
+
+}  // namespace
+
+struct StreamDem::Impl {
+  StreamDemOptions o;
+  std::function<void(const StreamDemProgress&)> progress;
+  LasHeader first;
+  double k = 1;  // frame: world = frame * k + offset (LAS integers when the x and y scales agree)
+  bool same_scale = true;
+  std::uint64_t total_records = 0, kept = 0;
+  double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
+  double hist_lo = 0, hist_hi = 0;
+  std::vector<std::uint64_t> hist;
+  detail::Hull hull;
+  std::vector<double> core_x, core_y;  // see insideCore
+  RasterGrid grid, fgrid;
+  std::vector<double> seams;  // descending; strip s: seams[s] <= y < seams[s - 1]
+  StreamDemStats stats;
+  Clock::time_point t0 = Clock::now();
+
+  /// Reads every kept point of every input in order, as (index, frame x, frame y, value, world x, y).
+  template <class F>
+  void forEachPoint(const char* stage, F&& f) {
+    std::uint64_t index = 0, done = 0;
+    const auto t = Clock::now();
+    std::vector<LasRecord> chunk;
+    for (std::size_t i = 0; i < o.inputs.size(); ++i) {
+      LasReader reader(o.inputs[i]);
+      const LasHeader& h = reader.header();
+      std::int64_t shift[3] = {0, 0, 0};
+      for (int a = 0; a < 3 && i > 0; ++a) {
+        const double d = (h.offset[a] - first.offset[a]) / first.scale[a];
+        if (h.scale[a] != first.scale[a] || d != std::round(d) || std::fabs(d) > 4e9)
+          throw Error(o.inputs[i] + ": its LAS scale and offset do not share the first input's integer grid");
+        shift[a] = std::int64_t(d);
+      }
+      while (reader.read(chunk, 1 << 16) > 0) {
+        for (const LasRecord& r : chunk) {
+          if (o.classification >= 0 && r.classification != o.classification) continue;
+          const std::int64_t X = r.X + shift[0], Y = r.Y + shift[1], Z = r.Z + shift[2];
+          if (X < INT32_MIN || X > INT32_MAX || Y < INT32_MIN || Y > INT32_MAX || Z < INT32_MIN ||
+              Z > INT32_MAX)
+            throw Error(o.inputs[i] + ": a coordinate leaves the first input's frame");
+          const std::int32_t x = std::int32_t(X), y = std::int32_t(Y), z = std::int32_t(Z);
+          const double fx = same_scale ? double(x) : x * first.scale[0];
+          const double fy = same_scale ? double(y) : y * first.scale[1];
+          const double value = o.intensity ? double(r.intensity) : z * first.scale[2] + first.offset[2];
+          f(index++, fx, fy, value, x * first.scale[0] + first.offset[0],
+            y * first.scale[1] + first.offset[1]);
+        }
+        done += chunk.size();
+        report(stage, done, t);
+      }
+    }
+  }
+
+  void report(const char* stage, std::uint64_t done, Clock::time_point t) {
+    if (!progress) return;
+    StreamDemProgress p;
+    p.stage = stage;
+    p.points_read = done;
+    p.points_total = std::string(stage) == "strips" ? kept : total_records;
+    p.strips_done = stats.strips;
+    p.strips = seams.size() + 1;
+    p.rows = grid.rows;
+    p.elapsed_s = since(t0);
+    const double dt = since(t);
+    p.rate = dt > 0 ? double(done) / dt : 0;
+    p.left_s = p.rate > 0 ? double(p.points_total - std::min(done, p.points_total)) / p.rate : 0;
+    progress(p);
+  }
+
+  void scan() {
+    for (const std::string& path : o.inputs) {
+      LasReader r(path);
+      total_records += r.header().point_count;
+      if (&path == &o.inputs[0]) first = r.header();
+    }
+    same_scale = first.scale[0] == first.scale[1];
+    k = same_scale ? first.scale[0] : 1.0;
+    // The histogram spans the headers' y bounds in the frame; points outside (a lying header) fall
+    // into the end bins, which only makes strips uneven.
+    hist_lo = HUGE_VAL, hist_hi = -HUGE_VAL;
+    for (const std::string& path : o.inputs) {
+      LasReader r(path);
+      const double off = same_scale ? first.offset[1] : 0.0;
+      hist_lo = std::min(hist_lo, (r.header().min[1] - off) / k);
+      hist_hi = std::max(hist_hi, (r.header().max[1] - off) / k);
+    }
+    hist.assign(kHistogramBins, 0);
+    std::vector<double> hx, hy;
+    forEachPoint("scan", [&](std::uint64_t, double fx, double fy, double, double wx, double wy) {
+      ++kept;
+      lo[0] = std::min(lo[0], wx), hi[0] = std::max(hi[0], wx);
+      lo[1] = std::min(lo[1], wy), hi[1] = std::max(hi[1], wy);
+      hist[bin(fy)]++;
+      if (insideCore(fx, fy)) return;
+      hx.push_back(fx), hy.push_back(fy);
+      if (hx.size() >= (1u << 16)) foldHull(hx, hy);
+    });
+    foldHull(hx, hy);
+    if (kept == 0)
+      throw Error((o.inputs.size() == 1 ? o.inputs[0] : "the inputs") + ": no points" +
+                  (o.classification >= 0 ? " of class " + std::to_string(o.classification) : std::string()));
+    stats.points = kept;
+    stats.scan_s = since(t0);
+  }
+
+  std::size_t bin(double fy) const {
+    const double w = (hist_hi - hist_lo) / double(kHistogramBins);
+    if (!(w > 0)) return 0;
+    const double b = std::floor((fy - hist_lo) / w);
+    return b < 0 ? 0 : (b >= double(kHistogramBins) ? kHistogramBins - 1 : std::size_t(b));
+  }
+
+  /// The running hull: hull(points so far) = hull(hull of the earlier ones u this chunk).
+  void foldHull(std::vector<double>& hx, std::vector<double>& hy) {
+    hx.insert(hx.end(), hull.x.begin(), hull.x.end());
+    hy.insert(hy.end(), hull.y.begin(), hull.y.end());
+    hull = detail::convexHull(hx.data(), hy.data(), hx.size());
+    hx.clear(), hy.clear();
+    // The hull's extreme vertices in eight directions, counter-clockwise: a polygon inside the hull.
+    core_x.clear(), core_y.clear();
+    for (int d = 0; d < 8 && hull.x.size() >= 3; ++d) {
+      const double cx = std::cos(d * 0.7853981633974483), cy = std::sin(d * 0.7853981633974483);
+      std::size_t best = 0;
+      for (std::size_t i = 1; i < hull.x.size(); ++i)
+        if (hull.x[i] * cx + hull.y[i] * cy > hull.x[best] * cx + hull.y[best] * cy) best = i;
+      if (core_x.empty() || core_x.back() != hull.x[best] || core_y.back() != hull.y[best])
+        core_x.push_back(hull.x[best]), core_y.push_back(hull.y[best]);
+    }
+  }
+
+  /// Whether (x, y) lies inside the core polygon by a margin far above rounding: then it is inside the
+  /// hull of the points so far and cannot be a vertex of any later hull (it only skips work).
+  bool insideCore(double x, double y) const {
+    const std::size_t m = core_x.size();
+    if (m < 3) return false;
+    for (std::size_t i = 0; i < m; ++i) {
+      const std::size_t j = (i + 1) % m;
+      const double ex = core_x[j] - core_x[i], ey = core_y[j] - core_y[i];
+      const double wx = x - core_x[i], wy = y - core_y[i];
+      const double slack = 1e-9 * (std::fabs(ex) + std::fabs(ey)) *
+                           (std::fabs(core_x[i]) + std::fabs(core_y[i]) + std::fabs(x) + std::fabs(y) + 1.0);
+      if (!(ex * wy - ey * wx > slack)) return false;
+    }
+    return true;
+  }
+
+  void plan() {
+    grid = o.has_bounds ? gridFromBounds(o.bounds[0], o.bounds[1], o.bounds[2], o.bounds[3], o.resolution)
+                        : alignedGridCovering(lo[0], lo[1], hi[0], hi[1], o.resolution);
+    if (grid.cols > 2147483647u || grid.rows > 2147483647u)
+      throw Error("a raster of " + std::to_string(grid.cols) + " x " + std::to_string(grid.rows) +
+                  " cells exceeds 2^31 - 1 cells a side");
+    fgrid = grid;
+    fgrid.west = (grid.west - (same_scale ? first.offset[0] : 0.0)) / k;
+    fgrid.north = (grid.north - (same_scale ? first.offset[1] : 0.0)) / k;
+    fgrid.cell = grid.cell / k;
+    std::uint64_t per_strip =
+        std::max<std::uint64_t>(1024, o.memory_limit_mb * 1048576ull / kBytesPerStripPoint);
+    per_strip = std::max<std::uint64_t>(per_strip, kept / kMaxStrips + 1);
+    // Bins from the north; a seam at a bin's lower edge once the strip holds per_strip points.
+    const double w = (hist_hi - hist_lo) / double(kHistogramBins);
+    std::uint64_t acc = 0;
+    for (std::size_t b = kHistogramBins; b-- > 1;) {
+      acc += hist[b];
+      if (acc >= per_strip) {
+        seams.push_back(hist_lo + double(b) * w);
+        acc = 0;
+      }
+    }
+  }
+
+  std::size_t stripOf(double fy) const {  // seams descending: the number of seams > fy
+    return std::size_t(std::upper_bound(seams.begin(), seams.end(), fy, std::greater<double>()) -
+                       seams.begin());
+  }
+};
+
+StreamDem::StreamDem(const StreamDemOptions& options, std::function<void(const StreamDemProgress&)> progress)
+    : impl_(std::make_unique<Impl>()) {
+  if (options.inputs.empty()) throw Error("dw::dem::StreamDem: no input file");
+  impl_->o = options;
+  impl_->progress = std::move(progress);
+  impl_->scan();
+  impl_->plan();
+}
+
+StreamDem::~StreamDem() = default;
+
+const RasterGrid& StreamDem::grid() const {
+  return impl_->grid;
+}
+
+StreamDemStats StreamDem::run(const StreamRowSink& sink) {
+  Impl& m = *impl_;
+  const std::size_t strips = m.seams.size() + 1;
+  std::vector<Spill> spill(strips);
+  for (Spill& s : spill) {
+    s.f = std::tmpfile();  // unlinked: gone however the run ends
+    if (!s.f) throw Error("dw::dem::StreamDem: cannot create a spill file in the temporary folder");
+  }
+  const auto t_spill = Clock::now();
+  m.forEachPoint("spill", [&](std::uint64_t index, double fx, double fy, double value, double, double) {
+    Spill& s = spill[m.stripOf(fy)];
+    const SpillRecord r{index, fx, fy, value};
+    if (std::fwrite(&r, sizeof r, 1, s.f) != 1) throw Error("dw::dem::StreamDem: cannot write a spill file");
+    ++s.count;
+  });
+  m.stats.spill_s = since(t_spill);
+
+  const auto t_strips = Clock::now();
+  detail::StreamRaster raster(m.fgrid, m.hull, m.o.max_edge / m.k, m.o.nodata, sink);
+  detail::StreamTin tin(&m.hull, m.o.threads);
+  std::uint64_t done = 0;
+  std::vector<SpillRecord> buf;
+  for (std::size_t s = 0; s < strips; ++s) {
+    detail::StripPoints p;
+    buf.resize(spill[s].count);
+    std::rewind(spill[s].f);
+    if (!buf.empty() && std::fread(buf.data(), sizeof(SpillRecord), buf.size(), spill[s].f) != buf.size())
+      throw Error("dw::dem::StreamDem: cannot read a spill file back");
+    std::fclose(spill[s].f);
+    spill[s].f = nullptr;
+    p.x.resize(buf.size()), p.y.resize(buf.size()), p.value.resize(buf.size()), p.index.resize(buf.size());
+    for (std::size_t i = 0; i < buf.size(); ++i)
+      p.index[i] = buf[i].index, p.x[i] = buf[i].x, p.y[i] = buf[i].y, p.value[i] = buf[i].value;
+    std::vector<SpillRecord>().swap(buf);
+    m.stats.max_strip_points = std::max(m.stats.max_strip_points, p.size());
+    done += p.size();
+    const double seam = s + 1 < strips ? m.seams[s] : -HUGE_VAL;
+    tin.addStrip(std::move(p), seam, [&](const detail::StripPoints& pts, const std::vector<index_t>& t) {
+      m.stats.triangles += t.size() / 3;
+      raster.add(pts, t);
+    });
+    m.stats.max_rows_held = std::max(m.stats.max_rows_held, raster.rowsHeld());
+    raster.flush(s + 1 == strips);
+    m.stats.max_resident = std::max(m.stats.max_resident, tin.residentPoints());
+    m.stats.strips = s + 1;
+    m.report("strips", done, t_strips);
+  }
+  m.stats.raster = raster.stats();
+  m.stats.strips_s = since(t_strips);
+  return m.stats;
+}
+
+}  // namespace dem
+}  // namespace dw

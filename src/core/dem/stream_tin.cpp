@@ -1,0 +1,167 @@
+/// \file stream_tin.cpp
+/// \brief The streaming TIN's step: merge, triangulate, remove what lies under the final region, split,
+/// hand on, keep the frontier and the resident points (see stream_tin.h for why it is exact).
+#include "core/dem/stream_tin.h"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_set>
+
+#include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
+
+namespace dw {
+namespace dem {
+namespace detail {
+
+namespace {
+
+constexpr index_t kNoTriangle = ~index_t(0);
+
+std::uint64_t edgeKey(index_t a, index_t b) {
+  return (std::uint64_t(a) << 32) | b;
+}
+
+/// The two sorted point sets merged into one in ascending global index.
+StripPoints mergeByIndex(StripPoints& a, StripPoints& b) {
+  StripPoints out;
+  const std::size_t n = a.size() + b.size();
+  out.x.reserve(n), out.y.reserve(n), out.value.reserve(n), out.index.reserve(n);
+  std::size_t i = 0, j = 0;
+  while (i < a.size() || j < b.size()) {
+    const bool take_a = j == b.size() || (i < a.size() && a.index[i] < b.index[j]);
+    StripPoints& s = take_a ? a : b;
+    std::size_t& k = take_a ? i : j;
+    out.x.push_back(s.x[k]), out.y.push_back(s.y[k]), out.value.push_back(s.value[k]);
+    out.index.push_back(s.index[k]);
+    ++k;
+  }
+  a.clear(), b.clear();
+  return out;
+}
+
+/// Directed edges of a triangulation by their first vertex: find(a, b) is the triangle holding a -> b.
+class EdgeIndex {
+ public:
+  EdgeIndex(const std::vector<index_t>& t, std::size_t n) : start_(n + 1, 0) {
+    for (std::size_t k = 0; k < t.size(); ++k) ++start_[t[k] + 1];
+    for (std::size_t v = 0; v < n; ++v) start_[v + 1] += start_[v];
+    entries_.resize(t.size());
+    std::vector<index_t> fill(start_.begin(), start_.end() - 1);
+    for (std::size_t k = 0; k < t.size(); ++k) {
+      const std::size_t tri = k / 3, next = 3 * tri + (k % 3 + 1) % 3;
+      entries_[fill[t[k]]++] = {t[next], index_t(tri)};
+    }
+  }
+  index_t find(index_t a, index_t b) const {
+    for (index_t e = start_[a]; e < start_[a + 1]; ++e)
+      if (entries_[e].first == b) return entries_[e].second;
+    return kNoTriangle;
+  }
+
+ private:
+  std::vector<index_t> start_;
+  std::vector<std::pair<index_t, index_t>> entries_;
+};
+
+enum Label : unsigned char { kTrue = 0, kUnderFinal = 1, kFinal = 2, kOpen = 3 };
+
+}  // namespace
+
+void StreamTin::addStrip(StripPoints&& strip, double seam, const FinalTriangles& emit) {
+  StripPoints pts = mergeByIndex(resident_, strip);
+  const std::size_t n = pts.size();
+  if (n == 0) return;
+  tin::TinOptions to;
+  to.num_threads = threads_;
+  tin::TinResult tin = tin::triangulate(pts.x.data(), pts.y.data(), n, to);
+  if (tin.degenerate) {  // collinear so far: every distinct point stays
+    std::vector<char> dup(n, 0);
+    for (const auto& d : tin.duplicates) dup[d.first] = 1;
+    for (std::size_t i = 0; i < n; ++i)
+      if (!dup[i]) {
+        resident_.x.push_back(pts.x[i]), resident_.y.push_back(pts.y[i]);
+        resident_.value.push_back(pts.value[i]), resident_.index.push_back(pts.index[i]);
+      }
+    return;
+  }
+  const std::vector<index_t>& t = tin.triangles;
+  const std::size_t nt = t.size() / 3;
+  const EdgeIndex edges(t, n);
+  auto local = [&](std::uint64_t g) {
+    const auto it = std::lower_bound(pts.index.begin(), pts.index.end(), g);
+    if (it == pts.index.end() || *it != g)
+      throw Error("dw::dem: internal consistency failure (frontier vertex)");
+    return index_t(it - pts.index.begin());
+  };
+  std::vector<std::pair<index_t, index_t>> old_frontier;
+  std::unordered_set<std::uint64_t> old_set;
+  for (const auto& e : frontier_) {
+    old_frontier.emplace_back(local(e.first), local(e.second));
+    old_set.insert(edgeKey(old_frontier.back().first, old_frontier.back().second));
+  }
+
+  // Triangles under the final region: reached from the final side of a frontier edge.
+  std::vector<unsigned char> label(nt, kTrue);
+  std::vector<index_t> stack;
+  for (const auto& e : old_frontier) {
+    const index_t f = edges.find(e.first, e.second);
+    if (f != kNoTriangle && label[f] == kTrue) label[f] = kUnderFinal, stack.push_back(f);
+  }
+  while (!stack.empty()) {
+    const index_t f = stack.back();
+    stack.pop_back();
+    for (int j = 0; j < 3; ++j) {
+      const index_t p = t[3 * f + j], q = t[3 * f + (j + 1) % 3];
+      if (old_set.count(edgeKey(p, q))) continue;
+      const index_t g = edges.find(q, p);
+      if (g != kNoTriangle && label[g] == kTrue) label[g] = kUnderFinal, stack.push_back(g);
+    }
+  }
+
+  // The rest, final or open.
+  std::vector<index_t> live, fin, open;
+  for (std::size_t k = 0; k < nt; ++k)
+    if (label[k] == kTrue) live.insert(live.end(), {t[3 * k], t[3 * k + 1], t[3 * k + 2]});
+  splitFinalTriangles(pts.x.data(), pts.y.data(), live.data(), live.size(), seam, hull_, fin, open);
+  std::size_t fi = 0;  // the split keeps the order: each live triangle is the next final one or open
+  for (std::size_t k = 0; k < nt; ++k) {
+    if (label[k] != kTrue) continue;
+    const bool is_final =
+        fi < fin.size() && fin[fi] == t[3 * k] && fin[fi + 1] == t[3 * k + 1] && fin[fi + 2] == t[3 * k + 2];
+    label[k] = is_final ? kFinal : kOpen;
+    fi += is_final ? 3 : 0;
+  }
+  if (emit && !fin.empty()) emit(pts, fin);
+
+  // The new frontier: old frontier edges and final triangles' edges whose other side is not final.
+  std::vector<char> keep(n, 0);
+  for (std::size_t k = 0; k < open.size(); ++k) keep[open[k]] = 1;
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> next;
+  auto consider = [&](index_t a, index_t b) {
+    const index_t across = edges.find(b, a);
+    bool frontier;
+    if (across != kNoTriangle)
+      frontier = label[across] == kOpen;
+    else if (old_set.count(edgeKey(b, a)))
+      frontier = false;
+    else  // a hull edge: stays on the frontier while a later point may come outside it
+      frontier = laterPointsMayLieRightOf(pts.x[a], pts.y[a], pts.x[b], pts.y[b], seam, hull_);
+    if (!frontier) return;
+    next.emplace_back(pts.index[a], pts.index[b]);
+    keep[a] = keep[b] = 1;
+  };
+  for (const auto& e : old_frontier) consider(e.first, e.second);
+  for (std::size_t k = 0; k < fin.size(); k += 3)
+    for (int j = 0; j < 3; ++j) consider(fin[k + j], fin[k + (j + 1) % 3]);
+  frontier_.swap(next);
+
+  for (std::size_t i = 0; i < n; ++i)
+    if (keep[i]) {
+      resident_.x.push_back(pts.x[i]), resident_.y.push_back(pts.y[i]);
+      resident_.value.push_back(pts.value[i]), resident_.index.push_back(pts.index[i]);
+    }
+}
+
+}  // namespace detail
+}  // namespace dem
+}  // namespace dw
