@@ -11,6 +11,8 @@
 // Maps and scans: PCD, PLY, KITTI .bin, LAS, LAZ; a map may be a graph file saved with --save-map
 // (then it must be the only map). Every frame gets a status (docs/localization.md); the run ends with
 // the latency percentiles, iterations, fitness and, with --truth, the error against the true poses.
+// --gpu registers on the GPU (dw::gpu::Localizer: the map resident on the device, point-to-point only)
+// where the build has the GPU module and the machine a CUDA device; otherwise it stops with a message.
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -19,6 +21,9 @@
 
 #include "app_args.h"
 #include "localize_common.h"
+#ifdef DW_HAVE_GPU
+#include "pcl_delaunay_walk/gpu/localizer.h"
+#endif
 
 namespace {
 
@@ -113,21 +118,23 @@ Options parse(int argc, char** argv) {
       o.scans.push_back(a);
     }
   }
-  if (o.gpu) return o;
   if (o.maps.empty()) throw dw::Error("no map (--map MAP)");
   if (o.scans.empty() && o.save_map.empty()) throw dw::Error("no scans");
   if (!o.scans.empty() && o.poses.empty()) throw dw::Error("no output (--poses OUT.txt)");
   return o;
 }
 
-dw::Localizer makeLocalizer(const Options& o) {
+/// The CPU dw::Localizer or the GPU dw::gpu::Localizer over the map: both load a graph file and build
+/// a graph from clouds the same way.
+template <class Loc>
+Loc makeLocalizer(const Options& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const bool graph_file = o.maps.size() == 1 && dw_apps::endsWith(o.maps[0], ".graph");
   for (const std::string& m : o.maps)
     if (dw_apps::endsWith(m, ".graph") && !graph_file)
       throw dw::Error("map graph '" + m + "' must be the only --map");
   if (graph_file) {
-    dw::Localizer loc = dw::Localizer::load(o.maps[0], o.loc);
+    Loc loc = Loc::load(o.maps[0], o.loc);
     std::printf("map %s: %zu points, graph loaded in %.3f s\n", o.maps[0].c_str(), loc.mapPoints(),
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return loc;
@@ -148,21 +155,15 @@ dw::Localizer makeLocalizer(const Options& o) {
       std::printf("  building: %s %d%%\n", stage.c_str(), 10 * t);
     last = stage, tenth = t;
   };
-  dw::Localizer loc(dw::PointView::fromFloat(xyz.data(), xyz.size() / 3), o.loc, progress);
+  Loc loc(dw::PointView::fromFloat(xyz.data(), xyz.size() / 3), o.loc, progress);
   std::printf("map graph: %zu vertices, %zu directed edges, built in %.3f s\n", loc.graph().numVertices(),
               loc.graph().numDirectedEdges(),
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
   return loc;
 }
 
-int run(const Options& o) {
-  if (o.gpu) {
-    std::fprintf(stderr,
-                 "dw_localize: --gpu: this build has no device path for the localizer yet; "
-                 "run without --gpu for the CPU path\n");
-    return 2;
-  }
-  dw::Localizer loc = makeLocalizer(o);
+template <class Loc>
+int track(Loc& loc, const Options& o) {
   if (!o.save_map.empty()) {
     loc.save(o.save_map);
     std::printf("saved the map graph to %s\n", o.save_map.c_str());
@@ -194,6 +195,24 @@ int run(const Options& o) {
                 truth.empty() ? "" : (" " + o.plot + "_error.png").c_str());
   }
   return 0;
+}
+
+int run(const Options& o) {
+  if (!o.gpu) {
+    dw::Localizer loc = makeLocalizer<dw::Localizer>(o);
+    return track(loc, o);
+  }
+#ifdef DW_HAVE_GPU
+  if (dw::gpu::cudaDeviceCount() == 0)
+    throw dw::Error("--gpu: no CUDA device on this machine (run without --gpu for the CPU path)");
+  cudaDeviceProp prop;
+  dw::gpu::checkCuda(cudaGetDeviceProperties(&prop, 0), "cudaGetDeviceProperties");
+  std::printf("GPU: %s (the ICP runs on the device; point-to-point)\n", prop.name);
+  dw::gpu::Localizer loc = makeLocalizer<dw::gpu::Localizer>(o);
+  return track(loc, o);
+#else
+  throw dw::Error("--gpu: this dw_localize was built without CUDA (configure with nvcc and DW_WITH_CUDA=ON)");
+#endif
 }
 
 }  // namespace

@@ -314,6 +314,24 @@ __global__ void emptySourcesKernel(const std::uint32_t* __restrict__ meta, std::
   for (int k = 0; k < kSums; ++k) sums[std::size_t(s) * kSums + k] = 0.0;
 }
 
+/// First starts of an align: the warm start of each point's caller index where one is kept.
+__global__ void gatherHintsKernel(const std::uint32_t* __restrict__ input_index, std::uint32_t n,
+                                  const std::uint32_t* __restrict__ warm, std::uint32_t warm_valid,
+                                  std::uint32_t* __restrict__ hints) {
+  const std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const std::uint32_t c = input_index[i];
+  hints[i] = c < warm_valid ? warm[c] : kInvalid;
+}
+
+/// Last vertices of an align, kept per caller index for the next one.
+__global__ void scatterHintsKernel(const std::uint32_t* __restrict__ input_index, std::uint32_t n,
+                                   const std::uint32_t* __restrict__ hints,
+                                   std::uint32_t* __restrict__ warm) {
+  const std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) warm[input_index[i]] = hints[i];
+}
+
 }  // namespace
 
 const char* toString(ConvergenceState s) {
@@ -425,6 +443,8 @@ void IterativeClosestPoint::setParameters(const IcpParameters& p) {
 void IterativeClosestPoint::clearSources() {
   sources_.clear();
   host_points_.clear();
+  host_input_index_.clear();
+  total_inputs_ = 0;
   dirty_ = true;
 }
 
@@ -434,17 +454,24 @@ void IterativeClosestPoint::setInputSource(const dw::PointView& source) {
 }
 
 std::size_t IterativeClosestPoint::addSource(const dw::PointView& source) {
+  if (total_inputs_ + source.size >= kInvalid)
+    throw dw::Error("dw::gpu::IterativeClosestPoint: sources too large for 32-bit device indices");
   std::vector<std::array<double, 3>> pts;
+  std::vector<std::uint32_t> caller;  // caller index of each kept point
   pts.reserve(source.size);
+  caller.reserve(source.size);
   for (std::size_t i = 0; i < source.size; ++i) {
     const auto p = source[i];
-    if (std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])) pts.push_back(p);
+    if (std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])) {
+      pts.push_back(p);
+      caller.push_back(std::uint32_t(total_inputs_ + i));
+    }
   }
-  if (host_points_.size() + pts.size() >= kInvalid)
-    throw dw::Error("dw::gpu::IterativeClosestPoint: sources too large for 32-bit device indices");
   HostSource hs;
   hs.begin = host_points_.size();
   hs.size = pts.size();
+  hs.input_begin = total_inputs_;
+  total_inputs_ += source.size;
   double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
   if (!pts.empty()) {
     for (int a = 0; a < 3; ++a) lo[a] = hi[a] = pts[0][a];
@@ -469,9 +496,11 @@ std::size_t IterativeClosestPoint::addSource(const dw::PointView& source) {
   std::vector<std::size_t> order(pts.size());
   std::iota(order.begin(), order.end(), std::size_t(0));
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return key[a] < key[b]; });
-  for (std::size_t i : order)
+  for (std::size_t i : order) {
     host_points_.push_back(make_float4(float(pts[i][0] - hs.centroid[0]), float(pts[i][1] - hs.centroid[1]),
                                        float(pts[i][2] - hs.centroid[2]), 0.f));
+    host_input_index_.push_back(caller[i]);
+  }
   sources_.push_back(hs);
   dirty_ = true;
   return sources_.size() - 1;
@@ -497,12 +526,36 @@ void IterativeClosestPoint::uploadLayout() {
     point_source.insert(point_source.end(), sources_[s].size, std::uint32_t(s));
   }
   num_blocks_ = std::uint32_t(block_source.size());
-  points_.upload(host_points_);
-  hints_.create(host_points_.size());
-  corr_d2_.create(host_points_.size());
-  point_source_.upload(point_source);
-  block_source_.upload(block_source);
-  source_meta_.upload(meta);
+  const std::size_t n = host_points_.size();
+  // Through page-locked staging, asynchronously on the ICP's stream: the copies queue ahead of the
+  // iterations instead of blocking the host. The staging is rewritten only here, and every earlier
+  // copy from it has completed by then (align waits for its stream before it returns).
+  checkCuda(cudaStreamSynchronize(stream_), "ICP: staging");
+  stage_points_.create(n);
+  std::copy(host_points_.begin(), host_points_.end(), stage_points_.data());
+  const std::size_t ni = point_source.size() + block_source.size() + meta.size() + n;
+  stage_indices_.create(ni);
+  std::uint32_t* at = stage_indices_.data();
+  auto stage = [&](DeviceBuffer<std::uint32_t>& dev, const std::uint32_t* host, std::size_t count) {
+    std::copy(host, host + count, at);
+    dev.create(count);
+    if (count)
+      checkCuda(
+          cudaMemcpyAsync(dev.ptr(), at, count * sizeof(std::uint32_t), cudaMemcpyHostToDevice, stream_),
+          "ICP: upload indices");
+    at += count;
+  };
+  points_.create(n);
+  if (n)
+    checkCuda(cudaMemcpyAsync(points_.ptr(), stage_points_.data(), n * sizeof(float4), cudaMemcpyHostToDevice,
+                              stream_),
+              "ICP: upload points");
+  stage(point_source_, point_source.data(), point_source.size());
+  stage(block_source_, block_source.data(), block_source.size());
+  stage(source_meta_, meta.data(), meta.size());
+  stage(input_index_, host_input_index_.data(), n);
+  hints_.create(n);
+  corr_d2_.create(n);
   partials_.create(std::max<std::size_t>(1, block_source.size()) * kSums);
   states_.create(sources_.size() * sizeof(SourceState));
   tickets_.create(sources_.size());
@@ -531,12 +584,12 @@ std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4
   checkCuda(
       cudaMemcpyAsync(states_.ptr(), init.data(), ns * sizeof(SourceState), cudaMemcpyHostToDevice, stream_),
       "ICP: upload state");
-  checkCuda(cudaMemsetAsync(hints_.ptr(), 0xff, hints_.size() * sizeof(std::uint32_t), stream_),
-            "ICP: reset hints");
+  seedHints();
   checkCuda(cudaMemsetAsync(done_count_.ptr(), 0, sizeof(unsigned), stream_), "ICP: reset");
   checkCuda(cudaMemsetAsync(tickets_.ptr(), 0, tickets_.size() * sizeof(unsigned), stream_),
             "ICP: reset tickets");
   runIterations();
+  if (warm_start_) keepHints();
 
   std::vector<SourceState> fin(ns);
   checkCuda(
@@ -546,6 +599,43 @@ std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4
   std::vector<IcpResult> out(ns);
   for (std::size_t s = 0; s < ns; ++s) out[s] = resultOf(fin[s], o);
   return out;
+}
+
+void IterativeClosestPoint::seedHints() {
+  const std::size_t n = host_points_.size();
+  if (!warm_start_ || warm_valid_ == 0 || n == 0) {
+    checkCuda(cudaMemsetAsync(hints_.ptr(), 0xff, n * sizeof(std::uint32_t), stream_), "ICP: reset hints");
+    return;
+  }
+  gatherHintsKernel<<<unsigned((n + 255) / 256), 256, 0, stream_>>>(
+      input_index_.ptr(), std::uint32_t(n), warm_hints_.ptr(), std::uint32_t(warm_valid_), hints_.ptr());
+  checkCuda(cudaGetLastError(), "ICP: warm starts");
+}
+
+void IterativeClosestPoint::keepHints() {
+  const std::size_t n = host_points_.size();
+  if (total_inputs_ > warm_hints_.size()) {
+    // Rare (a larger source than ever before): a new array, the kept starts copied, the rest "none".
+    // The wait lets the old array go while nothing reads it.
+    DeviceBuffer<std::uint32_t> grown(total_inputs_);
+    checkCuda(cudaMemsetAsync(grown.ptr(), 0xff, total_inputs_ * sizeof(std::uint32_t), stream_),
+              "ICP: warm starts");
+    if (warm_valid_)
+      checkCuda(cudaMemcpyAsync(grown.ptr(), warm_hints_.ptr(), warm_valid_ * sizeof(std::uint32_t),
+                                cudaMemcpyDeviceToDevice, stream_),
+                "ICP: warm starts");
+    checkCuda(cudaStreamSynchronize(stream_), "ICP: warm starts");
+    warm_hints_ = std::move(grown);
+  } else if (total_inputs_ > warm_valid_) {
+    checkCuda(cudaMemsetAsync(warm_hints_.ptr() + warm_valid_, 0xff,
+                              (total_inputs_ - warm_valid_) * sizeof(std::uint32_t), stream_),
+              "ICP: warm starts");
+  }
+  warm_valid_ = std::max(warm_valid_, total_inputs_);
+  if (n == 0) return;
+  scatterHintsKernel<<<unsigned((n + 255) / 256), 256, 0, stream_>>>(input_index_.ptr(), std::uint32_t(n),
+                                                                     hints_.ptr(), warm_hints_.ptr());
+  checkCuda(cudaGetLastError(), "ICP: keep warm starts");
 }
 
 void IterativeClosestPoint::runIterations() {

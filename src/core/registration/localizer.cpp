@@ -1,6 +1,5 @@
 #include "pcl_delaunay_walk/core/registration/localizer.h"
 
-#include <Eigen/LU>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -11,17 +10,6 @@
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
 
 namespace dw {
-
-const char* toString(FrameStatus s) {
-  switch (s) {
-    case FrameStatus::Ok: return "ok";
-    case FrameStatus::EmptyScan: return "empty scan";
-    case FrameStatus::NoFinitePoints: return "no finite points";
-    case FrameStatus::NoCorrespondences: return "no correspondences (scan outside the map?)";
-    case FrameStatus::LostTrack: return "lost track";
-  }
-  return "?";
-}
 
 namespace {
 
@@ -109,30 +97,13 @@ const std::vector<float>& Localizer::mapNormals() {
   return normals_;
 }
 
-void Localizer::setPose(const Eigen::Matrix4d& pose) {
-  pose_ = pose;
-  velocity_.setIdentity();
-  have_velocity_ = false;
-}
-
-Eigen::Matrix4d Localizer::predictedPose() const {
-  return options_.constant_velocity && have_velocity_ ? Eigen::Matrix4d(pose_ * velocity_) : pose_;
-}
-
 FrameResult Localizer::registerScan(const PointView& scan) {
   const auto t0 = std::chrono::steady_clock::now();
   FrameResult r;
   const Eigen::Matrix4d guess = predictedPose();
   r.pose = guess;
   auto finish = [&](FrameStatus status) {
-    r.status = status;
-    if (status == FrameStatus::Ok) {
-      velocity_ = pose_.inverse() * r.pose;
-      have_velocity_ = true;
-    } else {
-      r.pose = guess;  // the track coasts on the prediction
-    }
-    pose_ = r.pose;
+    track_.finish(r, status, guess);
     r.latency_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return r;
   };
@@ -148,11 +119,9 @@ FrameResult Localizer::registerScan(const PointView& scan) {
   r.search_seconds = icp.search_seconds;
   r.fitness = double(icp.correspondences) / double(r.points);
   r.rmse = std::sqrt(icp.mse);
-  if (icp.convergence == IcpConvergence::NoCorrespondences) return finish(FrameStatus::NoCorrespondences);
-  r.pose = icp.transform;
-  if (!(r.fitness >= options_.min_fitness) || !(r.rmse <= options_.max_rmse) || !r.pose.allFinite())
-    return finish(FrameStatus::LostTrack);
-  return finish(FrameStatus::Ok);
+  if (icp.convergence != IcpConvergence::NoCorrespondences) r.pose = icp.transform;
+  return finish(FrameTrack::registeredStatus(icp.convergence, r.fitness, r.rmse, r.pose, options_.min_fitness,
+                                             options_.max_rmse));
 }
 
 }  // namespace dw

@@ -10,7 +10,9 @@
 /// solves the step (rigid_transform.h), composes the transform and applies PCL's convergence rules,
 /// setting a per-source "done" flag that makes later launches for that source return at once. The
 /// host reads a done count from mapped memory to stop launching early. The walk uses the target's
-/// group size and layout (DelaunayWalk::setGroupSize, setInlineNeighbourPositions).
+/// group size and layout (DelaunayWalk::setGroupSize, setInlineNeighbourPositions). Sources go to the
+/// device through page-locked staging buffers, asynchronously on stream(); with setWarmStart(true)
+/// each source point starts where the point of the same caller index ended in the previous align.
 #pragma once
 
 #include <cuda_runtime_api.h>
@@ -25,6 +27,7 @@
 #include "pcl_delaunay_walk/core/graph/point_view.h"
 #include "pcl_delaunay_walk/gpu/delaunay_walk.h"
 #include "pcl_delaunay_walk/gpu/device_buffer.h"
+#include "pcl_delaunay_walk/gpu/pinned_buffer.h"
 
 namespace dw {
 namespace gpu {
@@ -97,6 +100,17 @@ class IterativeClosestPoint {
   void clearSources();
   std::size_t numSources() const { return sources_.size(); }
 
+  /// \brief Warm starts across align calls (off by default: every align starts from the start grid).
+  /// On, the first iteration walks each source point from the vertex that the point with the same
+  /// caller index (its position in the PointViews given since the last clearSources, counting
+  /// non-finite ones) ended at in the previous align; points without one start from the grid. A
+  /// spinning LiDAR keeps its point order, so that vertex is near. Starts never change an answer (the
+  /// walk is exact from any start), only how far it walks.
+  void setWarmStart(bool on) { warm_start_ = on; }
+  bool warmStart() const { return warm_start_; }
+  /// \brief Forgets the warm starts kept so far (the next align starts from the grid).
+  void clearWarmStart() { warm_valid_ = 0; }
+
   /// \brief Registers source 0 starting from `guess` (PCL's align(output, guess)).
   IcpResult align(const Matrix4d& guess = identityMatrix4d());
   /// \brief Registers every source in one set of launches; guesses: one per source, or empty (identity).
@@ -108,22 +122,36 @@ class IterativeClosestPoint {
  private:
   struct HostSource {
     std::size_t begin = 0, size = 0;  ///< range in the concatenated device source array
+    std::size_t input_begin = 0;      ///< caller index of its first point, over all sources
     double centroid[3] = {0, 0, 0};   ///< device points are stored relative to it (float precision)
   };
   void uploadLayout();
   /// Queues the iterations (walk, accumulate, solve) until every source is done or max_iterations.
   void runIterations();
+  /// Sets every point's first start: its warm start where one is kept, else the grid.
+  void seedHints();
+  /// Keeps every point's last vertex as the warm start of its caller index.
+  void keepHints();
 
   DelaunayWalk::ConstPtr target_;
   IcpParameters params_;
   std::vector<HostSource> sources_;
-  std::vector<float4> host_points_;  ///< concatenated, centred, Morton-sorted per source
+  std::vector<float4> host_points_;              ///< concatenated, centred, Morton-sorted per source
+  std::vector<std::uint32_t> host_input_index_;  ///< per point: its caller index
+  std::size_t total_inputs_ = 0;                 ///< caller points given since clearSources, finite or not
   bool dirty_ = true;
+  bool warm_start_ = false;
+  std::size_t warm_valid_ = 0;  ///< caller indices below this have a kept warm start
+
+  PinnedBuffer<float4> stage_points_;          ///< upload staging of the points
+  PinnedBuffer<std::uint32_t> stage_indices_;  ///< upload staging of the index arrays
 
   DeviceBuffer<float4> points_;
   DeviceBuffer<std::uint32_t> hints_;         ///< per point: last nearest vertex (PNN start)
   DeviceBuffer<float> corr_d2_;               ///< per point: accepted squared distance, or -1
   DeviceBuffer<std::uint32_t> point_source_;  ///< per point: its source
+  DeviceBuffer<std::uint32_t> input_index_;   ///< per point: its caller index
+  DeviceBuffer<std::uint32_t> warm_hints_;    ///< per caller index: the last vertex its point ended at
   DeviceBuffer<std::uint32_t> block_source_;
   DeviceBuffer<std::uint32_t> source_meta_;  ///< per source: begin, size, first block, #blocks
   DeviceBuffer<double> partials_;

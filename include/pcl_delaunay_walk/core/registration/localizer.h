@@ -10,36 +10,11 @@
 #include <vector>
 
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
+#include "pcl_delaunay_walk/core/registration/frame_track.h"
 #include "pcl_delaunay_walk/core/registration/icp.h"
 #include "pcl_delaunay_walk/core/registration/walk_correspondence_search.h"
 
 namespace dw {
-
-/// What became of one frame. Every frame gets one; none throws.
-enum class FrameStatus {
-  Ok,
-  EmptyScan,          ///< the scan has no points
-  NoFinitePoints,     ///< every point is NaN/Inf
-  NoCorrespondences,  ///< fewer than IcpOptions::min_correspondences map points within the distance:
-                      ///< the scan is far outside the map (or the prediction is far off)
-  LostTrack,          ///< registered, but the fitness or the RMSE is past its bound
-};
-const char* toString(FrameStatus s);
-
-struct FrameResult {
-  /// Sensor -> map. On a frame whose status is not Ok: the prediction, which the track continues from.
-  Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
-  FrameStatus status = FrameStatus::Ok;
-  IcpConvergence convergence = IcpConvergence::NotConverged;
-  int iterations = 0;
-  /// Fraction of the registered scan points with a map point within the correspondence distance,
-  /// in the last iteration (Open3D's "fitness").
-  double fitness = 0.0;
-  double rmse = 0.0;           ///< of those correspondences, metres
-  std::size_t points = 0;      ///< scan points registered (finite, after downsampling)
-  double latency_seconds = 0;  ///< wall time of registerScan, downsampling included
-  double search_seconds = 0;   ///< of which in the correspondence search
-};
 
 struct LocalizerOptions {
   IcpOptions icp;      ///< its num_threads is replaced by num_threads below
@@ -76,10 +51,10 @@ class Localizer {
   void save(const std::string& path) const;
 
   /// Sets the current pose (sensor -> map) and forgets the motion: the next frame starts from it.
-  void setPose(const Eigen::Matrix4d& pose);
-  const Eigen::Matrix4d& pose() const { return pose_; }
+  void setPose(const Eigen::Matrix4d& pose) { track_.setPose(pose); }
+  const Eigen::Matrix4d& pose() const { return track_.pose(); }
   /// The guess the next registerScan starts from.
-  Eigen::Matrix4d predictedPose() const;
+  Eigen::Matrix4d predictedPose() const { return track_.predictedPose(options_.constant_velocity); }
 
   /// Registers one scan (sensor coordinates). Never throws for bad scan content.
   FrameResult registerScan(const PointView& scan);
@@ -99,9 +74,7 @@ class Localizer {
   std::shared_ptr<WalkCorrespondenceSearch> search_;
   std::vector<float> normals_;
   IcpWorkspace workspace_;
-  Eigen::Matrix4d pose_ = Eigen::Matrix4d::Identity();
-  Eigen::Matrix4d velocity_ = Eigen::Matrix4d::Identity();  ///< last frame-to-frame motion (body frame)
-  bool have_velocity_ = false;
+  FrameTrack track_;
 };
 
 }  // namespace dw
