@@ -48,7 +48,10 @@ TEST(GpuLocalizer, PosesEqualTheCpuLocalizersAlongASequence) {
       ASSERT_EQ(a.status, dw::FrameStatus::Ok) << "voxel " << voxel << " frame " << k;
       ASSERT_EQ(b.status, dw::FrameStatus::Ok) << "voxel " << voxel << " frame " << k;
       EXPECT_EQ(a.points, b.points);
-      EXPECT_LT(maxAbsDiff(a.pose, b.pose), 1e-5) << "voxel " << voxel << " frame " << k;
+      EXPECT_LT(maxAbsDiff(a.pose, b.pose), 1e-5)
+          << "voxel " << voxel << " frame " << k << ": iterations " << a.iterations << " / " << b.iterations
+          << ", fitness " << a.fitness << " / " << b.fitness << ", rmse " << a.rmse << " / " << b.rmse
+          << ", convergence " << int(a.convergence) << " / " << int(b.convergence) << ", points " << a.points;
       EXPECT_NEAR(a.fitness, b.fitness, 1e-3) << "frame " << k;
       EXPECT_LT(dw_test::translationError(b.pose, truth[k]), 0.03) << "frame " << k;
       EXPECT_LT(maxAbsDiff(cpu.predictedPose(), gpu.predictedPose()), 1e-5) << "frame " << k;
