@@ -161,9 +161,10 @@ run_tsan() {
   # with TSan, so the barrier that ends every parallel region is invisible to it and it reports the
   # accesses that barrier orders (docs/robustness.md, "Why no OpenMP test under TSan"). The same query
   # pattern runs on std::thread in the tests above (pcl.search.DelaunayWalkApi.ConcurrentQueriesAreExact,
-  # pcl.robustness.PclConcurrency.*); ASan and the Release suite still run the OpenMP tests.
+  # pcl.robustness.PclConcurrency.*); ASan and the Release suite still run the OpenMP tests. Not the
+  # apps' tests either (apps.dem.stream_*_strip): this build holds the test binaries above, no apps.
   timeout "$BUDGET" ctest --test-dir "$TSAN_DIR" --output-on-failure -j "$JOBS" --timeout "$TEST_TIMEOUT" \
-      -R "$regex" -E "$EXCLUDE|NormalEstimationOmp" ${SANITIZE_CTEST_ARGS:-}
+      -R "$regex" -E "$EXCLUDE|NormalEstimationOmp|^apps[.]" ${SANITIZE_CTEST_ARGS:-}
   local rc=$?
   echo "== TSan: ctest took $((SECONDS - t1)) s, total $((SECONDS - t0)) s (exit $rc)"
   [ $build_rc = 0 ] || rc=1
