@@ -100,6 +100,30 @@ std::size_t rasterizeTriangle(const Corner* t, const double* val, const RasterGr
   return set;
 }
 
+/// A triangle as both rasterisers see it: rotated to start at its smallest vertex index, so the
+/// interpolation's rounding does not depend on the rotation the triangulation happened to store, and
+/// whether an edge is longer than the kill length. Every cell of every rasteriser comes from here, which
+/// is what makes them equal bit for bit.
+struct CanonicalTriangle {
+  index_t i[3];
+  Corner t[3];
+  bool killed = false;
+};
+
+CanonicalTriangle canonicalTriangle(const index_t* v, const double* x, const double* y, double max_edge2) {
+  CanonicalTriangle c;
+  const int f = v[0] < v[1] ? (v[0] < v[2] ? 0 : 2) : (v[1] < v[2] ? 1 : 2);
+  for (int j = 0; j < 3; ++j) {
+    c.i[j] = v[(f + j) % 3];
+    c.t[j] = {x[c.i[j]], y[c.i[j]]};
+  }
+  for (int j = 0; j < 3; ++j) {
+    const double dx = c.t[(j + 1) % 3].x - c.t[j].x, dy = c.t[(j + 1) % 3].y - c.t[j].y;
+    c.killed = c.killed || dx * dx + dy * dy > max_edge2;
+  }
+  return c;
+}
+
 }  // namespace
 
 TinRasterStats rasterizeTinRows(const double* x, const double* y, const double* value, std::size_t n,
@@ -131,22 +155,14 @@ TinRasterStats rasterizeTinRows(const double* x, const double* y, const double* 
       if (v[0] >= n || v[1] >= n || v[2] >= n)
         throw Error("rasterizeTinRows: triangle " + std::to_string(k) +
                     " has a vertex index >= " + std::to_string(n));
-      // Start at the smallest index, so the interpolation's rounding does not depend on the rotation
-      // the triangulation happened to store.
-      const int f = v[0] < v[1] ? (v[0] < v[2] ? 0 : 2) : (v[1] < v[2] ? 1 : 2);
-      const index_t i[3] = {v[f], v[(f + 1) % 3], v[(f + 2) % 3]};
-      const Corner t[3] = {{x[i[0]], y[i[0]]}, {x[i[1]], y[i[1]]}, {x[i[2]], y[i[2]]}};
-      bool killed = false;
-      for (int j = 0; j < 3; ++j) {
-        const double dx = t[(j + 1) % 3].x - t[j].x, dy = t[(j + 1) % 3].y - t[j].y;
-        killed = killed || dx * dx + dy * dy > max_edge2;
-      }
-      if (killed) {
+      const CanonicalTriangle c = canonicalTriangle(v, x, y, max_edge2);
+      if (c.killed) {
         ++s.triangles_killed;
         continue;
       }
+      const Corner* t = c.t;
       if (pred::orient2d(t[0].x, t[0].y, t[1].x, t[1].y, t[2].x, t[2].y) <= 0) continue;  // not a triangle
-      const double val[3] = {value[i[0]], value[i[1]], value[i[2]]};
+      const double val[3] = {value[c.i[0]], value[c.i[1]], value[c.i[2]]};
       s.cells_set += rasterizeTriangle(t, val, grid, row_begin, row_end, out);
       if (w == 0 && options.progress && (k - b) % 65536 == 0) options.progress(double(k - b) / double(e - b));
     }
@@ -169,15 +185,10 @@ TinRasterStats rasterizeOwnedCells(const double* x, const double* y, const doubl
   for (std::size_t k = 0; k + 2 < num_indices; k += 3) {
     const index_t* v = triangles + k;
     if (v[0] >= n || v[1] >= n || v[2] >= n) throw Error("rasterizeOwnedCells: vertex index out of range");
-    // The same rotation, kill test and arithmetic as rasterizeTinRows: the cells come out bit for bit.
-    const int f = v[0] < v[1] ? (v[0] < v[2] ? 0 : 2) : (v[1] < v[2] ? 1 : 2);
-    const index_t i[3] = {v[f], v[(f + 1) % 3], v[(f + 2) % 3]};
-    const Corner t[3] = {{x[i[0]], y[i[0]]}, {x[i[1]], y[i[1]]}, {x[i[2]], y[i[2]]}};
-    bool killed = false;
-    for (int j = 0; j < 3; ++j) {
-      const double dx = t[(j + 1) % 3].x - t[j].x, dy = t[(j + 1) % 3].y - t[j].y;
-      killed = killed || dx * dx + dy * dy > max_edge2;
-    }
+    const CanonicalTriangle c = canonicalTriangle(v, x, y, max_edge2);
+    const Corner* t = c.t;
+    const bool killed = c.killed;
+    const index_t* i = c.i;
     if (pred::orient2d(t[0].x, t[0].y, t[1].x, t[1].y, t[2].x, t[2].y) <= 0) continue;
     const double val[3] = {value[i[0]], value[i[1]], value[i[2]]};
     const std::size_t set =
