@@ -50,4 +50,12 @@ if [ -d "$PEERS" ]; then
 else
   echo "prepare.sh: no peers at $PEERS: tools/device/peers.sh will run without them"
 fi
+# With DW_DEVICE_NODE=1: node (compressed; the device has none), npm's laz-perf and the shared LAZ file,
+# for tools/device/laz_lazperf.sh.
+if [ "${DW_DEVICE_NODE:-0}" = 1 ]; then
+  mkdir -p "$DEPS/node"
+  [ -f "$DEPS/node/node.xz" ] || xz -T0 -6 -c "$(readlink -f "$(command -v node)")" > "$DEPS/node/node.xz"
+  cp "$DATA/airborne/las_with_several_extra_byte_bloc.laz" "$DEPS/data/airborne/"
+  [ -d "$DEPS/lazperf/node_modules/laz-perf" ] || echo "prepare.sh: no laz-perf in .deps/lazperf (scripts/setup.sh installs it)"
+fi
 du -sh "$DEPS"
