@@ -39,22 +39,27 @@ struct StreamRequest {
 };
 
 /// One line on stderr, at most every second and once at the end of each stage: points read of the
-/// stage's total, strips done, rows and triangles written, rate and the stage's time left.
+/// stage's total, then (once pass 1 has planned them) strips done, rows written (with a raster),
+/// triangles written (with a PLY), and the rate, seconds so far and the stage's time left.
 class StreamProgress {
  public:
   std::size_t rows_written = 0;
   std::uint64_t triangles_written = 0;
+  bool mesh = false;
   void operator()(const dw::dem::StreamDemProgress& p) {
     const bool end = p.points_read >= p.points_total;
     if (p.elapsed_s - last_ < 1.0 && !end && p.stage == stage_) return;
     last_ = p.elapsed_s;
     stage_ = p.stage;
-    std::fprintf(stderr,
-                 "\r  %-6s points %llu of %llu  strips %zu of %zu  rows %zu of %zu  triangles %llu  %.2f M "
-                 "points/s  %.0f s, left %.0f s   %s",
-                 p.stage, (unsigned long long)p.points_read, (unsigned long long)p.points_total, p.strips_done,
-                 p.strips, rows_written, p.rows, (unsigned long long)triangles_written, p.rate / 1e6,
-                 p.elapsed_s, p.left_s, end ? "\n" : "");
+    std::fprintf(stderr, "\r  %-6s points %llu of %llu", p.stage, (unsigned long long)p.points_read,
+                 (unsigned long long)p.points_total);
+    if (std::string(p.stage) != "scan") {
+      std::fprintf(stderr, "  strips %zu of %zu", p.strips_done, p.strips);
+      if (p.rows) std::fprintf(stderr, "  rows %zu of %zu", rows_written, p.rows);
+      if (mesh) std::fprintf(stderr, "  triangles %llu", (unsigned long long)triangles_written);
+    }
+    std::fprintf(stderr, "  %.2f M points/s  %.0f s, left %.0f s   %s", p.rate / 1e6, p.elapsed_s, p.left_s,
+                 end ? "\n" : "");
   }
 
  private:
@@ -84,6 +89,7 @@ inline dw::dem::StreamDemStats runStreamed(const StreamRequest& r) {
   }
 #endif
   StreamProgress progress;
+  progress.mesh = !r.ply.empty();
   std::function<void(const dw::dem::StreamDemProgress&)> show;
   if (!r.quiet) show = [&](const dw::dem::StreamDemProgress& p) { progress(p); };
   dw::dem::StreamDem stream(o, show);  // pass 1: bounds, hull, strips
@@ -125,8 +131,10 @@ inline dw::dem::StreamDemStats runStreamed(const StreamRequest& r) {
   if (o.raster)
     std::printf("  killed %zu  raster %zu x %zu (%.6g units)  cells set %zu of %zu", st.raster.triangles_killed,
                 g.cols, g.rows, g.cell, st.raster.cells_set, g.size());
-  std::printf("\nstrips %zu (largest %zu points)  resident at most %zu points  rows held at most %zu\n", st.strips,
-              st.max_strip_points, st.max_resident, st.max_rows_held);
+  std::printf("\nstrips %zu (largest %zu points)  resident at most %zu points", st.strips, st.max_strip_points,
+              st.max_resident);
+  if (o.raster) std::printf("  rows held at most %zu", st.max_rows_held);
+  std::printf("\n");
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("threads %u  scan %.3f s  spill %.3f s  strips %.3f s  total %.3f s\n", r.threads, st.scan_s,
               st.spill_s, st.strips_s, total);
