@@ -4,7 +4,7 @@
 /// carrying the file's coordinate system (docs/dem.md).
 ///   dw_dem input.{las,laz} [more tiles ...] -o out.tif --resolution R [--class C]
 ///          [--bounds xmin ymin xmax ymax] [--max-edge L] [--value z|intensity] [--cog]
-///          [--hillshade out.png] [--threads N] [--stream [--memory-limit MB]] ...
+///          [--hillshade out.png] [--tin out.ply] [--threads N] [--stream [--memory-limit MB]] ...
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -21,6 +21,7 @@
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
+#include "pcl_delaunay_walk/core/tin/ply_writer.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
 
 namespace {
@@ -41,6 +42,8 @@ void usage() {
       "  --compress C         DEFLATE (default), LZW, ZSTD or NONE\n"
       "  --cog                a Cloud-Optimized GeoTIFF\n"
       "  --hillshade OUT.png  also write a hillshade preview\n"
+      "  --tin OUT.ply        also write the TIN as a binary PLY (as dw_tin; with --stream every kept\n"
+      "                       point is a vertex, in input order)\n"
       "  --threads N          threads (default: all cores)\n"
       "  --certify            check the TIN with the exact Delaunay certificate first\n"
       "  --stream             read strip by strip from north to south, holding only the open band\n"
@@ -54,6 +57,7 @@ double since(std::chrono::steady_clock::time_point t) {
 
 struct Arguments {
   std::vector<std::string> inputs;  ///< tiles of one survey, triangulated as one cloud
+  std::string tin_ply;              ///< --tin: the TIN as a PLY too
   int cls = -1;
   bool certify = false, quiet = false, help = false, stream = false;
   std::size_t memory_limit_mb = 1024;
@@ -87,6 +91,8 @@ Arguments parseArguments(int argc, char** argv) {
       const auto v = dw_apps::parseList(value(), "memory limit in MB", 1, 1 << 24);
       if (v.size() != 1) throw dw::Error("--memory-limit takes one size in MB");
       a.memory_limit_mb = v[0];
+    } else if (s == "--tin") {
+      a.tin_ply = value();
     } else if (s == "--certify") {
       a.certify = true;
     } else if (s == "--quiet") {
@@ -194,7 +200,12 @@ int run(const Arguments& a) {
       dw_apps::writeDem(a.dem, points, tin, wkt, a.threads, show);
   const dw::dem::RasterGrid& grid = dem.grid;
   const dw::dem::TinRasterStats& rs = dem.stats;
-  const double t_raster = dem.raster_s, t_write = dem.write_s, total = since(t0);
+  const double t_raster = dem.raster_s, t_write = dem.write_s;
+  if (!a.tin_ply.empty())
+    dw::tin::writeTinPly(
+        a.tin_ply, n, [&](std::size_t i, double* p) { p[0] = las.x(i), p[1] = las.y(i), p[2] = las.z(i); },
+        tin.triangles.data(), tin.triangles.size(), {"dw_dem Delaunay TIN of " + a.inputs[0]});
+  const double total = since(t0);
 
   const long peak = dw::processStatusKb("VmHWM:");
   std::printf(
@@ -204,8 +215,9 @@ int run(const Arguments& a) {
       rs.cells_set, grid.size());
   std::printf("threads %u  read %.3f s  triangulate %.3f s  raster %.3f s  write %.3f s  total %.3f s\n",
               a.threads, t_read, t_tin, t_raster, t_write, total);
-  std::printf("peak memory %.1f MB  wrote %s%s%s\n", peak / 1024.0, a.dem.out.c_str(),
-              a.dem.hillshade.empty() ? "" : " and ", a.dem.hillshade.c_str());
+  std::printf("peak memory %.1f MB  wrote %s%s%s%s%s\n", peak / 1024.0, a.dem.out.c_str(),
+              a.dem.hillshade.empty() ? "" : " and ", a.dem.hillshade.c_str(), a.tin_ply.empty() ? "" : " and ",
+              a.tin_ply.c_str());
   return 0;
 }
 
@@ -218,6 +230,8 @@ int runStream(const Arguments& a) {
   r.threads = a.threads;
   r.quiet = a.quiet;
   r.dem = &a.dem;
+  r.ply = a.tin_ply;
+  r.ply_comments = {"dw_dem streamed Delaunay TIN of " + a.inputs[0], "vertices: every kept point in input order"};
   dw_apps::runStreamed(r);
   return 0;
 }
