@@ -7,12 +7,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <functional>
 #include <string>
 #include <vector>
-
-#include <cstdio>
 
 #include "app_args.h"
 #include "pcl_delaunay_walk/core/dem/tin_raster.h"
@@ -114,7 +113,8 @@ inline std::string lasCrsWkt(const std::vector<std::string>& inputs, bool quiet)
   std::string source, wkt;
   try {
     wkt = dw::gdal::srsWktFromLas(dw::las::readLasCrs(inputs[0]), &source);
-    if (!quiet) std::fprintf(stderr, "coordinate system: %s\n", wkt.empty() ? "none in the file" : source.c_str());
+    if (!quiet)
+      std::fprintf(stderr, "coordinate system: %s\n", wkt.empty() ? "none in the file" : source.c_str());
     for (std::size_t i = 1; i < inputs.size(); ++i)
       if (dw::gdal::srsWktFromLas(dw::las::readLasCrs(inputs[i])) != wkt)
         std::fprintf(stderr, "warning: %s: another coordinate system than %s's; the raster takes %s's\n",

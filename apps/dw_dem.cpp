@@ -17,12 +17,12 @@
 #include "app_args.h"
 #include "core/util/process_memory.h"
 #include "dem_stage.h"
-#include "stream_stage.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/core/tin/ply_writer.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
+#include "stream_stage.h"
 
 namespace {
 
@@ -196,8 +196,7 @@ int run(const Arguments& a) {
 
   std::function<void(const std::string&, double)> show;
   if (!a.quiet) show = [](const std::string& stage, double f) { progress(stage, f); };
-  const dw_apps::DemResult dem =
-      dw_apps::writeDem(a.dem, points, tin, wkt, a.threads, show);
+  const dw_apps::DemResult dem = dw_apps::writeDem(a.dem, points, tin, wkt, a.threads, show);
   const dw::dem::RasterGrid& grid = dem.grid;
   const dw::dem::TinRasterStats& rs = dem.stats;
   const double t_raster = dem.raster_s, t_write = dem.write_s;
@@ -216,8 +215,8 @@ int run(const Arguments& a) {
   std::printf("threads %u  read %.3f s  triangulate %.3f s  raster %.3f s  write %.3f s  total %.3f s\n",
               a.threads, t_read, t_tin, t_raster, t_write, total);
   std::printf("peak memory %.1f MB  wrote %s%s%s%s%s\n", peak / 1024.0, a.dem.out.c_str(),
-              a.dem.hillshade.empty() ? "" : " and ", a.dem.hillshade.c_str(), a.tin_ply.empty() ? "" : " and ",
-              a.tin_ply.c_str());
+              a.dem.hillshade.empty() ? "" : " and ", a.dem.hillshade.c_str(),
+              a.tin_ply.empty() ? "" : " and ", a.tin_ply.c_str());
   return 0;
 }
 
@@ -231,7 +230,8 @@ int runStream(const Arguments& a) {
   r.quiet = a.quiet;
   r.dem = &a.dem;
   r.ply = a.tin_ply;
-  r.ply_comments = {"dw_dem streamed Delaunay TIN of " + a.inputs[0], "vertices: every kept point in input order"};
+  r.ply_comments = {"dw_dem streamed Delaunay TIN of " + a.inputs[0],
+                    "vertices: every kept point in input order"};
   dw_apps::runStreamed(r);
   return 0;
 }

@@ -17,11 +17,11 @@
 
 #include "core/util/file_header_check.h"
 #include "core/util/process_memory.h"
-#include "stream_stage.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/core/tin/ply_writer.h"
+#include "stream_stage.h"
 #ifdef DW_HAVE_GDAL
 #include "dem_stage.h"
 #endif
@@ -103,8 +103,7 @@ Arguments parseArguments(int argc, char** argv) {
     else if (a == "--memory-limit") {
       args.memory_limit_mb = parseUnsigned(a, value());
       if (args.memory_limit_mb == 0) throw dw::Error("--memory-limit must be at least 1 MB");
-    }
-    else if (a == "--class")
+    } else if (a == "--class")
       args.cls = int(parseUnsigned(a, value()));
     else if (a == "--certify")
       args.certify = true;
@@ -138,7 +137,8 @@ Arguments parseArguments(int argc, char** argv) {
     if (args.certify || args.strips_given)
       throw dw::Error("--stream does not take --certify or --strips (the strips follow --memory-limit)");
 #ifdef DW_HAVE_GDAL
-    if (!args.dem.hillshade.empty()) throw dw::Error("--stream does not take --hillshade (it needs the whole raster)");
+    if (!args.dem.hillshade.empty())
+      throw dw::Error("--stream does not take --hillshade (it needs the whole raster)");
 #endif
   }
   if (args.opt.num_threads == 0) args.opt.num_threads = std::max(1u, std::thread::hardware_concurrency());
@@ -300,8 +300,9 @@ int runStream(const Arguments& args) {
   if (!args.dem_out.empty()) r.dem = &args.dem;
 #endif
   r.ply = args.out;
-  r.ply_comments = {"dw_tin streamed Delaunay TIN of " + args.in,
-                    "triangles are Delaunay in (x, y); z is carried; vertices: every kept point in input order"};
+  r.ply_comments = {
+      "dw_tin streamed Delaunay TIN of " + args.in,
+      "triangles are Delaunay in (x, y); z is carried; vertices: every kept point in input order"};
   dw_apps::runStreamed(r);
   return 0;
 }

@@ -97,8 +97,8 @@ inline dw::dem::StreamDemStats runStreamed(const StreamRequest& r) {
   std::unique_ptr<dw::tin::PlyMeshWriter> ply;
   dw::dem::StreamMeshSink mesh;
   if (!r.ply.empty()) {
-    ply = std::make_unique<dw::tin::PlyMeshWriter>(r.ply, stream.points(),
-                                                   dw::tin::PlyMeshWriter::kFacesCountedAtClose, r.ply_comments);
+    ply = std::make_unique<dw::tin::PlyMeshWriter>(
+        r.ply, stream.points(), dw::tin::PlyMeshWriter::kFacesCountedAtClose, r.ply_comments);
     mesh.vertex = [&](double x, double y, double z) { ply->vertex(x, y, z); };
     mesh.triangles = [&](const std::uint64_t* t, std::size_t count) {
       for (std::size_t i = 0; i < 3 * count; i += 3)
@@ -129,17 +129,18 @@ inline dw::dem::StreamDemStats runStreamed(const StreamRequest& r) {
   const dw::dem::RasterGrid& g = stream.grid();
   std::printf("points %llu  triangles %llu", (unsigned long long)st.points, (unsigned long long)st.triangles);
   if (o.raster)
-    std::printf("  killed %zu  raster %zu x %zu (%.6g units)  cells set %zu of %zu", st.raster.triangles_killed,
-                g.cols, g.rows, g.cell, st.raster.cells_set, g.size());
-  std::printf("\nstrips %zu (largest %zu points)  resident at most %zu points", st.strips, st.max_strip_points,
-              st.max_resident);
+    std::printf("  killed %zu  raster %zu x %zu (%.6g units)  cells set %zu of %zu",
+                st.raster.triangles_killed, g.cols, g.rows, g.cell, st.raster.cells_set, g.size());
+  std::printf("\nstrips %zu (largest %zu points)  resident at most %zu points", st.strips,
+              st.max_strip_points, st.max_resident);
   if (o.raster) std::printf("  rows held at most %zu", st.max_rows_held);
   std::printf("\n");
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("threads %u  scan %.3f s  spill %.3f s  strips %.3f s  total %.3f s\n", r.threads, st.scan_s,
               st.spill_s, st.strips_s, total);
   const long peak = dw::processStatusKb("VmHWM:");
-  std::printf("peak memory %.1f MB (%.1f bytes/point)  wrote", peak / 1024.0, peak * 1024.0 / double(st.points));
+  std::printf("peak memory %.1f MB (%.1f bytes/point)  wrote", peak / 1024.0,
+              peak * 1024.0 / double(st.points));
 #ifdef DW_HAVE_GDAL
   if (r.dem) std::printf(" %s", r.dem->out.c_str());
 #endif

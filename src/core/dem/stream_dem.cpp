@@ -91,8 +91,8 @@ struct StreamDem::Impl {
           const double fx = same_scale ? double(x) : x * first.scale[0];
           const double fy = same_scale ? double(y) : y * first.scale[1];
           const double value = o.intensity ? double(r.intensity) : z * first.scale[2] + first.offset[2];
-          f(index++, fx, fy, value, x * first.scale[0] + first.offset[0], y * first.scale[1] + first.offset[1],
-            z * first.scale[2] + first.offset[2]);
+          f(index++, fx, fy, value, x * first.scale[0] + first.offset[0],
+            y * first.scale[1] + first.offset[1], z * first.scale[2] + first.offset[2]);
         }
         done += chunk.size();
         report(stage, done, t);
@@ -260,14 +260,15 @@ StreamDemStats StreamDem::run(const StreamRowSink& sink, const StreamMeshSink* m
     if (!s.f) throw Error("dw::dem::StreamDem: cannot create a spill file in the temporary folder");
   }
   const auto t_spill = Clock::now();
-  m.forEachPoint("spill", [&](std::uint64_t index, double fx, double fy, double value, double wx, double wy,
-                               double wz) {
-    if (mesh) mesh->vertex(wx, wy, wz);
-    Spill& s = spill[m.stripOf(fy)];
-    const SpillRecord r{index, fx, fy, value};
-    if (std::fwrite(&r, sizeof r, 1, s.f) != 1) throw Error("dw::dem::StreamDem: cannot write a spill file");
-    ++s.count;
-  });
+  m.forEachPoint(
+      "spill", [&](std::uint64_t index, double fx, double fy, double value, double wx, double wy, double wz) {
+        if (mesh) mesh->vertex(wx, wy, wz);
+        Spill& s = spill[m.stripOf(fy)];
+        const SpillRecord r{index, fx, fy, value};
+        if (std::fwrite(&r, sizeof r, 1, s.f) != 1)
+          throw Error("dw::dem::StreamDem: cannot write a spill file");
+        ++s.count;
+      });
   m.stats.spill_s = since(t_spill);
 
   const auto t_strips = Clock::now();

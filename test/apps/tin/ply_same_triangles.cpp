@@ -36,7 +36,8 @@ std::vector<Triangle> readTriangles(const std::string& path) {
       ls >> e;
       (e == "vertex" ? nv : nf) = std::stoull(ls.str().substr(ls.str().rfind(' ') + 1));
     }
-    if (w == "property" && line.find("double") == std::string::npos && line.find("list uchar int") == std::string::npos)
+    if (w == "property" && line.find("double") == std::string::npos &&
+        line.find("list uchar int") == std::string::npos)
       throw std::runtime_error(path + ": unexpected property: " + line);
   }
   if (!binary || line != "end_header") throw std::runtime_error(path + ": not a binary little-endian PLY");
@@ -52,8 +53,8 @@ std::vector<Triangle> readTriangles(const std::string& path) {
     std::memcpy(idx, rec + 1, 12);
     for (int k = 0; k < 3; ++k) {
       if (idx[k] < 0 || std::uint64_t(idx[k]) >= nv)
-        throw std::runtime_error(path + ": face " + std::to_string(f) + " has index " + std::to_string(idx[k]) +
-                                 " of " + std::to_string(nv) + " vertices");
+        throw std::runtime_error(path + ": face " + std::to_string(f) + " has index " +
+                                 std::to_string(idx[k]) + " of " + std::to_string(nv) + " vertices");
       t[f][k] = v[std::size_t(idx[k])];
     }
     std::rotate(t[f].begin(), std::min_element(t[f].begin(), t[f].end()), t[f].end());
