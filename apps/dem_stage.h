@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <functional>
 #include <string>
@@ -14,9 +15,12 @@
 
 #include "app_args.h"
 #include "pcl_delaunay_walk/core/dem/tin_raster.h"
+#include "pcl_delaunay_walk/core/las/las_crs.h"
+#include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/gdal/geotiff_writer.h"
 #include "pcl_delaunay_walk/gdal/hillshade.h"
+#include "pcl_delaunay_walk/gdal/las_srs.h"
 
 namespace dw_apps {
 
@@ -71,6 +75,56 @@ inline bool parseDemOption(const std::string& a, const std::function<const char*
 struct Frame {
   double k = 1, off_x = 0, off_y = 0;
 };
+
+/// What the DEM is interpolated from: the points in the triangulation frame (what the TIN was built
+/// of), the value of each, and the world box of the points (the default grid covers it).
+struct DemPoints {
+  Frame frame;
+  std::vector<double> x, y, value;
+  double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
+  void extend(double wx, double wy) {
+    lo[0] = std::min(lo[0], wx), hi[0] = std::max(hi[0], wx);
+    lo[1] = std::min(lo[1], wy), hi[1] = std::max(hi[1], wy);
+  }
+};
+
+/// A LAS cloud's DEM points; `value` is "z" or "intensity" (then `las` must keep its attributes).
+inline DemPoints demPointsOfLas(const dw::las::LasCloud& las, const std::string& value) {
+  const dw::las::LasHeader& h = las.header;
+  DemPoints p;
+  const bool same = h.scale[0] == h.scale[1];
+  p.frame.k = same ? h.scale[0] : 1.0;
+  p.frame.off_x = h.offset[0];
+  p.frame.off_y = h.offset[1];
+  const std::size_t n = las.size();
+  p.x.resize(n), p.y.resize(n), p.value.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    p.x[i] = same ? double(las.X[i]) : las.X[i] * h.scale[0];
+    p.y[i] = same ? double(las.Y[i]) : las.Y[i] * h.scale[1];
+    p.value[i] = value == "z" ? las.z(i) : double(las.intensity[i]);
+    p.extend(las.x(i), las.y(i));
+  }
+  return p;
+}
+
+/// The CRS of the first input as WKT (empty: none); a warning when another input's records differ
+/// or when GDAL cannot read the records (then the raster gets no CRS).
+inline std::string lasCrsWkt(const std::vector<std::string>& inputs, bool quiet) {
+  std::string source, wkt;
+  try {
+    wkt = dw::gdal::srsWktFromLas(dw::las::readLasCrs(inputs[0]), &source);
+    if (!quiet)
+      std::fprintf(stderr, "coordinate system: %s\n", wkt.empty() ? "none in the file" : source.c_str());
+    for (std::size_t i = 1; i < inputs.size(); ++i)
+      if (dw::gdal::srsWktFromLas(dw::las::readLasCrs(inputs[i])) != wkt)
+        std::fprintf(stderr, "warning: %s: another coordinate system than %s's; the raster takes %s's\n",
+                     inputs[i].c_str(), inputs[0].c_str(), inputs[0].c_str());
+  } catch (const dw::gdal::RasterError& e) {
+    std::fprintf(stderr, "warning: %s; the raster gets no coordinate system\n", e.what());
+    return std::string();
+  }
+  return wkt;
+}
 
 struct DemResult {
   dw::dem::RasterGrid grid;
@@ -145,6 +199,13 @@ inline DemResult writeDem(const DemOptions& d, const Frame& frame, const std::ve
   writer.commit();
   res.write_s = std::chrono::duration<double>(clock::now() - t1).count();
   return res;
+}
+
+/// The DEM stage of dw_dem and `dw_tin --dem` (in memory): `tin` was built of `p.x`, `p.y`.
+inline DemResult writeDem(const DemOptions& d, const DemPoints& p, const dw::tin::TinResult& tin,
+                          const std::string& srs_wkt, unsigned threads,
+                          const std::function<void(const std::string&, double)>& progress) {
+  return writeDem(d, p.frame, p.x, p.y, p.value, tin, p.lo, p.hi, srs_wkt, threads, progress);
 }
 
 }  // namespace dw_apps

@@ -4,7 +4,7 @@
 /// carrying the file's coordinate system (docs/dem.md).
 ///   dw_dem input.{las,laz} [more tiles ...] -o out.tif --resolution R [--class C]
 ///          [--bounds xmin ymin xmax ymax] [--max-edge L] [--value z|intensity] [--cog]
-///          [--hillshade out.png] [--threads N] [--stream [--memory-limit MB]] ...
+///          [--hillshade out.png] [--tin out.ply] [--threads N] [--stream [--memory-limit MB]] ...
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -17,13 +17,12 @@
 #include "app_args.h"
 #include "core/util/process_memory.h"
 #include "dem_stage.h"
-#include "pcl_delaunay_walk/core/dem/stream_dem.h"
-#include "pcl_delaunay_walk/core/las/las_crs.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
+#include "pcl_delaunay_walk/core/tin/ply_writer.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
-#include "pcl_delaunay_walk/gdal/las_srs.h"
+#include "stream_stage.h"
 
 namespace {
 
@@ -43,6 +42,8 @@ void usage() {
       "  --compress C         DEFLATE (default), LZW, ZSTD or NONE\n"
       "  --cog                a Cloud-Optimized GeoTIFF\n"
       "  --hillshade OUT.png  also write a hillshade preview\n"
+      "  --tin OUT.ply        also write the TIN as a binary PLY (as dw_tin; with --stream every kept\n"
+      "                       point is a vertex, in input order)\n"
       "  --threads N          threads (default: all cores)\n"
       "  --certify            check the TIN with the exact Delaunay certificate first\n"
       "  --stream             read strip by strip from north to south, holding only the open band\n"
@@ -56,6 +57,7 @@ double since(std::chrono::steady_clock::time_point t) {
 
 struct Arguments {
   std::vector<std::string> inputs;  ///< tiles of one survey, triangulated as one cloud
+  std::string tin_ply;              ///< --tin: the TIN as a PLY too
   int cls = -1;
   bool certify = false, quiet = false, help = false, stream = false;
   std::size_t memory_limit_mb = 1024;
@@ -89,6 +91,8 @@ Arguments parseArguments(int argc, char** argv) {
       const auto v = dw_apps::parseList(value(), "memory limit in MB", 1, 1 << 24);
       if (v.size() != 1) throw dw::Error("--memory-limit takes one size in MB");
       a.memory_limit_mb = v[0];
+    } else if (s == "--tin") {
+      a.tin_ply = value();
     } else if (s == "--certify") {
       a.certify = true;
     } else if (s == "--quiet") {
@@ -126,46 +130,6 @@ struct Progress {
   }
 };
 Progress progress;
-
-/// The points in the triangulation frame (dem_stage.h), and the world box of the points.
-dw_apps::Frame frameOf(const dw::las::LasCloud& las, std::vector<double>& x, std::vector<double>& y,
-                       double lo[2], double hi[2]) {
-  const dw::las::LasHeader& h = las.header;
-  dw_apps::Frame f;
-  const bool same = h.scale[0] == h.scale[1];
-  f.k = same ? h.scale[0] : 1.0;
-  f.off_x = h.offset[0];
-  f.off_y = h.offset[1];
-  x.resize(las.size());
-  y.resize(las.size());
-  lo[0] = lo[1] = HUGE_VAL;
-  hi[0] = hi[1] = -HUGE_VAL;
-  for (std::size_t i = 0; i < las.size(); ++i) {
-    x[i] = same ? double(las.X[i]) : las.X[i] * h.scale[0];
-    y[i] = same ? double(las.Y[i]) : las.Y[i] * h.scale[1];
-    lo[0] = std::min(lo[0], las.x(i)), hi[0] = std::max(hi[0], las.x(i));
-    lo[1] = std::min(lo[1], las.y(i)), hi[1] = std::max(hi[1], las.y(i));
-  }
-  return f;
-}
-
-/// The CRS of the first input as WKT (empty: none); a warning when another input's records differ.
-std::string crsOf(const Arguments& a) {
-  std::string source, wkt;
-  try {
-    wkt = dw::gdal::srsWktFromLas(dw::las::readLasCrs(a.inputs[0]), &source);
-    if (!a.quiet)
-      std::fprintf(stderr, "coordinate system: %s\n", wkt.empty() ? "none in the file" : source.c_str());
-    for (std::size_t i = 1; i < a.inputs.size(); ++i)
-      if (dw::gdal::srsWktFromLas(dw::las::readLasCrs(a.inputs[i])) != wkt)
-        std::fprintf(stderr, "warning: %s: another coordinate system than %s's; the raster takes %s's\n",
-                     a.inputs[i].c_str(), a.inputs[0].c_str(), a.inputs[0].c_str());
-  } catch (const dw::gdal::RasterError& e) {
-    std::fprintf(stderr, "warning: %s; the raster gets no coordinate system\n", e.what());
-    return std::string();
-  }
-  return wkt;
-}
 
 /// Appends `more` to `all`, re-expressing its integers in `all`'s scale and offset: exact when the
 /// scales are equal and the offsets differ by whole units (tiles of one survey), else refused.
@@ -210,13 +174,12 @@ int run(const Arguments& a) {
   if (n == 0)
     throw dw::Error((a.inputs.size() == 1 ? a.inputs[0] : "the inputs") + ": no points" +
                     (a.cls >= 0 ? " of class " + std::to_string(a.cls) : std::string()));
-  const std::string wkt = crsOf(a);
+  const std::string wkt = dw_apps::lasCrsWkt(a.inputs, a.quiet);
   const double t_read = since(t0);
 
   const auto t1 = std::chrono::steady_clock::now();
-  std::vector<double> x, y;
-  double box_lo[2], box_hi[2];
-  const dw_apps::Frame frame = frameOf(las, x, y, box_lo, box_hi);
+  const dw_apps::DemPoints points = dw_apps::demPointsOfLas(las, a.dem.value);
+  const std::vector<double>&x = points.x, &y = points.y;
   dw::tin::TinOptions to;
   to.num_threads = a.threads;
   if (!a.quiet) to.progress = [](const std::string& stage, double f) { progress(stage, f); };
@@ -231,15 +194,17 @@ int run(const Arguments& a) {
     if (!c.ok) return 2;
   }
 
-  std::vector<double> value(n);
-  for (std::size_t i = 0; i < n; ++i) value[i] = a.dem.value == "z" ? las.z(i) : double(las.intensity[i]);
   std::function<void(const std::string&, double)> show;
   if (!a.quiet) show = [](const std::string& stage, double f) { progress(stage, f); };
-  const dw_apps::DemResult dem =
-      dw_apps::writeDem(a.dem, frame, x, y, value, tin, box_lo, box_hi, wkt, a.threads, show);
+  const dw_apps::DemResult dem = dw_apps::writeDem(a.dem, points, tin, wkt, a.threads, show);
   const dw::dem::RasterGrid& grid = dem.grid;
   const dw::dem::TinRasterStats& rs = dem.stats;
-  const double t_raster = dem.raster_s, t_write = dem.write_s, total = since(t0);
+  const double t_raster = dem.raster_s, t_write = dem.write_s;
+  if (!a.tin_ply.empty())
+    dw::tin::writeTinPly(
+        a.tin_ply, n, [&](std::size_t i, double* p) { p[0] = las.x(i), p[1] = las.y(i), p[2] = las.z(i); },
+        tin.triangles.data(), tin.triangles.size(), {"dw_dem Delaunay TIN of " + a.inputs[0]});
+  const double total = since(t0);
 
   const long peak = dw::processStatusKb("VmHWM:");
   std::printf(
@@ -249,60 +214,25 @@ int run(const Arguments& a) {
       rs.cells_set, grid.size());
   std::printf("threads %u  read %.3f s  triangulate %.3f s  raster %.3f s  write %.3f s  total %.3f s\n",
               a.threads, t_read, t_tin, t_raster, t_write, total);
-  std::printf("peak memory %.1f MB  wrote %s%s%s\n", peak / 1024.0, a.dem.out.c_str(),
-              a.dem.hillshade.empty() ? "" : " and ", a.dem.hillshade.c_str());
+  std::printf("peak memory %.1f MB  wrote %s%s%s%s%s\n", peak / 1024.0, a.dem.out.c_str(),
+              a.dem.hillshade.empty() ? "" : " and ", a.dem.hillshade.c_str(),
+              a.tin_ply.empty() ? "" : " and ", a.tin_ply.c_str());
   return 0;
 }
 
 /// --stream: the strips, their final rows written as they come (docs/dem.md "Beyond memory").
 int runStream(const Arguments& a) {
-  const auto t0 = std::chrono::steady_clock::now();
-  dw::dem::StreamDemOptions o;
-  o.inputs = a.inputs;
-  o.classification = a.cls;
-  o.intensity = a.dem.value == "intensity";
-  o.resolution = a.dem.resolution;
-  o.has_bounds = a.dem.has_bounds;
-  std::copy(a.dem.bounds, a.dem.bounds + 4, o.bounds);
-  o.max_edge = a.dem.max_edge;
-  o.nodata = a.dem.tiff.nodata;
-  o.memory_limit_mb = a.memory_limit_mb;
-  o.threads = a.threads;
-  std::function<void(const dw::dem::StreamDemProgress&)> show;
-  std::size_t rows_written = 0;
-  if (!a.quiet)
-    show = [&](const dw::dem::StreamDemProgress& p) {
-      static double last = -1;
-      const bool end = p.points_read >= p.points_total;
-      if (p.elapsed_s - last < 1.0 && !end) return;
-      last = p.elapsed_s;
-      std::fprintf(stderr,
-                   "\r  %-6s points %llu of %llu  strips %zu of %zu  rows %zu of %zu  %.2f M points/s  left "
-                   "%.0f s   %s",
-                   p.stage, (unsigned long long)p.points_read, (unsigned long long)p.points_total,
-                   p.strips_done, p.strips, rows_written, p.rows, p.rate / 1e6, p.left_s, end ? "\n" : "");
-    };
-  dw::dem::StreamDem dem(o, show);
-  const dw::dem::RasterGrid& grid = dem.grid();
-  dw::gdal::GeoTiffOptions tiff = a.dem.tiff;
-  tiff.srs_wkt = crsOf(a);
-  tiff.num_threads = a.threads;
-  dw::gdal::GeoTiffWriter writer(a.dem.out, grid, tiff);
-  const dw::dem::StreamDemStats st = dem.run([&](std::size_t r, std::size_t k, const double* v) {
-    writer.writeRows(r, k, v);
-    rows_written = r + k;
-  });
-  writer.commit();
-  const long peak = dw::processStatusKb("VmHWM:");
-  std::printf(
-      "points %llu  triangles %llu  killed %zu  raster %zu x %zu (%.6g units)  cells set %zu of %zu\n",
-      (unsigned long long)st.points, (unsigned long long)st.triangles, st.raster.triangles_killed, grid.cols,
-      grid.rows, grid.cell, st.raster.cells_set, grid.size());
-  std::printf("strips %zu (largest %zu points)  resident at most %zu points  rows held at most %zu\n",
-              st.strips, st.max_strip_points, st.max_resident, st.max_rows_held);
-  std::printf("threads %u  scan %.3f s  spill %.3f s  strips %.3f s  total %.3f s\n", a.threads, st.scan_s,
-              st.spill_s, st.strips_s, since(t0));
-  std::printf("peak memory %.1f MB  wrote %s\n", peak / 1024.0, a.dem.out.c_str());
+  dw_apps::StreamRequest r;
+  r.inputs = a.inputs;
+  r.classification = a.cls;
+  r.memory_limit_mb = a.memory_limit_mb;
+  r.threads = a.threads;
+  r.quiet = a.quiet;
+  r.dem = &a.dem;
+  r.ply = a.tin_ply;
+  r.ply_comments = {"dw_dem streamed Delaunay TIN of " + a.inputs[0],
+                    "vertices: every kept point in input order"};
+  dw_apps::runStreamed(r);
   return 0;
 }
 

@@ -2,7 +2,7 @@
 /// \brief dw_tin: parallel Delaunay TIN of a LiDAR cloud (LAS, PCD or PLY) written as a binary PLY mesh
 /// and/or, with GDAL, as a raster DEM (the DEM stage of dw_dem, apps/dem_stage.h; docs/dem.md).
 ///   dw_tin input.{las,pcd,ply} [-o out.ply] [--dem out.tif --resolution R ...] [--threads N] [--strips K]
-///          [--class C] [--certify] [--quiet]
+///          [--class C] [--certify] [--stream [--memory-limit MB]] [--quiet]
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 #include <pcl/point_types.h>
@@ -21,10 +21,9 @@
 #include "pcl_delaunay_walk/core/tin/certificate.h"
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/core/tin/ply_writer.h"
+#include "stream_stage.h"
 #ifdef DW_HAVE_GDAL
 #include "dem_stage.h"
-#include "pcl_delaunay_walk/core/las/las_crs.h"
-#include "pcl_delaunay_walk/gdal/las_srs.h"
 #endif
 
 namespace {
@@ -40,7 +39,11 @@ void usage() {
       "  --dem OUT.tif --resolution R [--bounds ..] [--max-edge L] [--value z|intensity] [--cog] "
       "[--hillshade P]\n"
       "              also (or only, without -o) a TIN-linear GeoTIFF DEM, as dw_dem writes it (needs "
-      "GDAL)\n");
+      "GDAL)\n"
+      "  --stream    LAS/LAZ: read strip by strip from north to south, writing the PLY's triangles (all\n"
+      "              kept points as vertices, input order) and the DEM's rows as they become final\n"
+      "  --memory-limit MB  with --stream: the strips' memory (default 1024), sets their height\n"
+      "  --quiet     no progress output\n");
 }
 
 std::string lower(std::string s) {
@@ -71,7 +74,8 @@ struct Arguments {
 #endif
   dw::tin::TinOptions opt;
   int cls = -1;
-  bool certify = false, quiet = false, help = false;
+  bool certify = false, quiet = false, help = false, stream = false, strips_given = false;
+  std::size_t memory_limit_mb = 1024;
 };
 
 Arguments parseArguments(int argc, char** argv) {
@@ -93,8 +97,13 @@ Arguments parseArguments(int argc, char** argv) {
     else if (a == "--threads")
       args.opt.num_threads = parseUnsigned(a, value());
     else if (a == "--strips")
-      args.opt.num_strips = parseUnsigned(a, value());
-    else if (a == "--class")
+      args.opt.num_strips = parseUnsigned(a, value()), args.strips_given = true;
+    else if (a == "--stream")
+      args.stream = true;
+    else if (a == "--memory-limit") {
+      args.memory_limit_mb = parseUnsigned(a, value());
+      if (args.memory_limit_mb == 0) throw dw::Error("--memory-limit must be at least 1 MB");
+    } else if (a == "--class")
       args.cls = int(parseUnsigned(a, value()));
     else if (a == "--certify")
       args.certify = true;
@@ -121,6 +130,17 @@ Arguments parseArguments(int argc, char** argv) {
   if (!args.dem_out.empty()) throw dw::Error("--dem: this dw_tin was built without GDAL (see docs/dem.md)");
 #endif
   if (!std::ifstream(args.in).good()) throw dw::Error(args.in + ": cannot open for reading");
+  if (args.stream) {
+    const std::string ext = lower(args.in);
+    if (!endsWith(ext, ".las") && !endsWith(ext, ".laz"))
+      throw dw::Error("--stream reads LAS or LAZ input (" + args.in + " is neither)");
+    if (args.certify || args.strips_given)
+      throw dw::Error("--stream does not take --certify or --strips (the strips follow --memory-limit)");
+#ifdef DW_HAVE_GDAL
+    if (!args.dem.hillshade.empty())
+      throw dw::Error("--stream does not take --hillshade (it needs the whole raster)");
+#endif
+  }
   if (args.opt.num_threads == 0) args.opt.num_threads = std::max(1u, std::thread::hardware_concurrency());
   if (!args.quiet)
     args.opt.progress = [](const std::string& stage, double f) {
@@ -234,32 +254,23 @@ void printReport(const Arguments& args, std::size_t n, const dw::tin::TinResult&
 }
 
 #ifdef DW_HAVE_GDAL
-/// The DEM of the TIN (apps/dem_stage.h), with the LAS file's CRS; prints its line of the report.
+/// The DEM of the TIN (apps/dem_stage.h, the stage dw_dem runs), with the LAS file's CRS; prints its
+/// line of the report.
 void writeDemOf(const Arguments& args, const InputCloud& input, const dw::tin::TinResult& tin) {
   if (args.dem.value == "intensity" && !input.is_las) throw dw::Error("--value intensity needs a LAS input");
-  const std::size_t n = input.size();
-  std::vector<double> x, y, value(n);
-  input.frame(x, y);
-  dw_apps::Frame frame;
-  if (input.is_las) {
-    frame.k = input.same_scale ? input.las.header.scale[0] : 1.0;
-    frame.off_x = input.las.header.offset[0];
-    frame.off_y = input.las.header.offset[1];
-  }
-  double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL}, p[3];
-  for (std::size_t i = 0; i < n; ++i) {
-    input.point(i, p);
-    value[i] = args.dem.value == "z" ? p[2] : double(input.las.intensity[i]);
-    lo[0] = std::min(lo[0], p[0]), hi[0] = std::max(hi[0], p[0]);
-    lo[1] = std::min(lo[1], p[1]), hi[1] = std::max(hi[1], p[1]);
-  }
+  dw_apps::DemPoints points;
   std::string wkt;
   if (input.is_las) {
-    try {
-      wkt = dw::gdal::srsWktFromLas(dw::las::readLasCrs(args.in));
-    } catch (const dw::gdal::RasterError& e) {
-      std::fprintf(stderr, "warning: %s: %s; the raster gets no coordinate system\n", args.in.c_str(),
-                   e.what());
+    points = dw_apps::demPointsOfLas(input.las, args.dem.value);
+    wkt = dw_apps::lasCrsWkt({args.in}, args.quiet);
+  } else {
+    input.frame(points.x, points.y);  // PCD/PLY floats: the frame is the world
+    points.value.resize(input.size());
+    double p[3];
+    for (std::size_t i = 0; i < input.size(); ++i) {
+      input.point(i, p);
+      points.value[i] = p[2];
+      points.extend(p[0], p[1]);
     }
   }
   std::function<void(const std::string&, double)> show;
@@ -269,12 +280,32 @@ void writeDemOf(const Arguments& args, const InputCloud& input, const dw::tin::T
       if (f >= 1.0) std::fprintf(stderr, "\n");
     };
   const unsigned threads = args.opt.num_threads;  // set by parseArguments
-  const auto dem = dw_apps::writeDem(args.dem, frame, x, y, value, tin, lo, hi, wkt, threads, show);
+  const auto dem = dw_apps::writeDem(args.dem, points, tin, wkt, threads, show);
   std::printf("dem %s: %zu x %zu cells of %.6g, set %zu, killed triangles %zu, raster %.2f s, write %.2f s\n",
               args.dem.out.c_str(), dem.grid.cols, dem.grid.rows, dem.grid.cell, dem.stats.cells_set,
               dem.stats.triangles_killed, dem.raster_s, dem.write_s);
 }
 #endif
+
+/// --stream: strip by strip, the PLY's triangles and the DEM's rows written as they become final
+/// (apps/stream_stage.h, the run `dw_dem --stream` makes).
+int runStream(const Arguments& args) {
+  dw_apps::StreamRequest r;
+  r.inputs = {args.in};
+  r.classification = args.cls;
+  r.memory_limit_mb = args.memory_limit_mb;
+  r.threads = args.opt.num_threads;
+  r.quiet = args.quiet;
+#ifdef DW_HAVE_GDAL
+  if (!args.dem_out.empty()) r.dem = &args.dem;
+#endif
+  r.ply = args.out;
+  r.ply_comments = {
+      "dw_tin streamed Delaunay TIN of " + args.in,
+      "triangles are Delaunay in (x, y); z is carried; vertices: every kept point in input order"};
+  dw_apps::runStreamed(r);
+  return 0;
+}
 
 /// Read, triangulate, certify if asked, write, report; the process's exit status.
 int run(const Arguments& args) {
@@ -326,7 +357,7 @@ int main(int argc, char** argv) {
       usage();
       return 0;
     }
-    return run(args);
+    return args.stream ? runStream(args) : run(args);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dw_tin: %s\n", e.what());
     return 1;

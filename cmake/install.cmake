@@ -1,10 +1,10 @@
 # Installable CMake package: find_package(pcl_delaunay_walk) then link pcl_delaunay_walk::pcl_delaunay_walk
-# (or ::core, ::mpi, ::gpu). Only the public headers of the targets that were built are installed;
+# (or ::core, ::mpi, ::gpu, ::gdal). Only the public headers of the targets that were built are installed;
 # private headers (src/) never are.
 include(CMakePackageConfigHelpers)
 
 set(DW_INSTALL_TARGETS pcl_delaunay_walk_core)
-foreach(t pcl_delaunay_walk pcl_delaunay_walk_gpu pcl_delaunay_walk_mpi)
+foreach(t pcl_delaunay_walk pcl_delaunay_walk_gpu pcl_delaunay_walk_mpi pcl_delaunay_walk_gdal)
   if(TARGET ${t})
     list(APPEND DW_INSTALL_TARGETS ${t})
   endif()
@@ -25,6 +25,14 @@ if(TARGET pcl_delaunay_walk)
 endif()
 if(TARGET pcl_delaunay_walk_mpi)
   install(DIRECTORY include/pcl_delaunay_walk/mpi DESTINATION ${_dw_inc})
+endif()
+# The GDAL layer (GeoTIFF/COG writer, LAS CRS to WKT, hillshade, VRT mosaic): a static library that
+# links GDAL privately, so the config finds GDAL for the link (DW_WITH_GDAL below).
+if(TARGET pcl_delaunay_walk_gdal)
+  install(DIRECTORY include/pcl_delaunay_walk/gdal DESTINATION ${_dw_inc})
+  set(DW_INSTALL_GDAL ON)
+else()
+  set(DW_INSTALL_GDAL OFF)
 endif()
 if(TARGET pcl_delaunay_walk_gpu)
   install(DIRECTORY gpu/include/pcl_delaunay_walk/gpu DESTINATION ${_dw_inc})

@@ -64,7 +64,7 @@ struct StreamDem::Impl {
   StreamDemStats stats;
   Clock::time_point t0 = Clock::now();
 
-  /// Reads every kept point of every input in order, as (index, frame x, frame y, value, world x, y).
+  /// Reads every kept point of every input in order, as (index, frame x, frame y, value, world x, y, z).
   template <class F>
   void forEachPoint(const char* stage, F&& f) {
     std::uint64_t index = 0, done = 0;
@@ -92,7 +92,7 @@ struct StreamDem::Impl {
           const double fy = same_scale ? double(y) : y * first.scale[1];
           const double value = o.intensity ? double(r.intensity) : z * first.scale[2] + first.offset[2];
           f(index++, fx, fy, value, x * first.scale[0] + first.offset[0],
-            y * first.scale[1] + first.offset[1]);
+            y * first.scale[1] + first.offset[1], z * first.scale[2] + first.offset[2]);
         }
         done += chunk.size();
         report(stage, done, t);
@@ -135,7 +135,7 @@ struct StreamDem::Impl {
     }
     hist.assign(kHistogramBins, 0);
     std::vector<double> hx, hy;
-    forEachPoint("scan", [&](std::uint64_t, double fx, double fy, double, double wx, double wy) {
+    forEachPoint("scan", [&](std::uint64_t, double fx, double fy, double, double wx, double wy, double) {
       ++kept;
       lo[0] = std::min(lo[0], wx), hi[0] = std::max(hi[0], wx);
       lo[1] = std::min(lo[1], wy), hi[1] = std::max(hi[1], wy);
@@ -194,6 +194,11 @@ struct StreamDem::Impl {
   }
 
   void plan() {
+    if (o.raster) planGrid();
+    planStrips();
+  }
+
+  void planGrid() {
     grid = o.has_bounds ? gridFromBounds(o.bounds[0], o.bounds[1], o.bounds[2], o.bounds[3], o.resolution)
                         : alignedGridCovering(lo[0], lo[1], hi[0], hi[1], o.resolution);
     if (grid.cols > 2147483647u || grid.rows > 2147483647u)
@@ -203,6 +208,9 @@ struct StreamDem::Impl {
     fgrid.west = (grid.west - (same_scale ? first.offset[0] : 0.0)) / k;
     fgrid.north = (grid.north - (same_scale ? first.offset[1] : 0.0)) / k;
     fgrid.cell = grid.cell / k;
+  }
+
+  void planStrips() {
     std::uint64_t per_strip =
         std::max<std::uint64_t>(1024, o.memory_limit_mb * 1048576ull / kBytesPerStripPoint);
     per_strip = std::max<std::uint64_t>(per_strip, kept / kMaxStrips + 1);
@@ -239,7 +247,11 @@ const RasterGrid& StreamDem::grid() const {
   return impl_->grid;
 }
 
-StreamDemStats StreamDem::run(const StreamRowSink& sink) {
+std::uint64_t StreamDem::points() const {
+  return impl_->kept;
+}
+
+StreamDemStats StreamDem::run(const StreamRowSink& sink, const StreamMeshSink* mesh) {
   Impl& m = *impl_;
   const std::size_t strips = m.seams.size() + 1;
   std::vector<Spill> spill(strips);
@@ -248,19 +260,25 @@ StreamDemStats StreamDem::run(const StreamRowSink& sink) {
     if (!s.f) throw Error("dw::dem::StreamDem: cannot create a spill file in the temporary folder");
   }
   const auto t_spill = Clock::now();
-  m.forEachPoint("spill", [&](std::uint64_t index, double fx, double fy, double value, double, double) {
-    Spill& s = spill[m.stripOf(fy)];
-    const SpillRecord r{index, fx, fy, value};
-    if (std::fwrite(&r, sizeof r, 1, s.f) != 1) throw Error("dw::dem::StreamDem: cannot write a spill file");
-    ++s.count;
-  });
+  m.forEachPoint(
+      "spill", [&](std::uint64_t index, double fx, double fy, double value, double wx, double wy, double wz) {
+        if (mesh) mesh->vertex(wx, wy, wz);
+        Spill& s = spill[m.stripOf(fy)];
+        const SpillRecord r{index, fx, fy, value};
+        if (std::fwrite(&r, sizeof r, 1, s.f) != 1)
+          throw Error("dw::dem::StreamDem: cannot write a spill file");
+        ++s.count;
+      });
   m.stats.spill_s = since(t_spill);
 
   const auto t_strips = Clock::now();
-  detail::StreamRaster raster(m.fgrid, m.hull, m.o.max_edge / m.k, m.o.nodata, sink);
+  std::unique_ptr<detail::StreamRaster> raster;
+  if (m.o.raster)
+    raster = std::make_unique<detail::StreamRaster>(m.fgrid, m.hull, m.o.max_edge / m.k, m.o.nodata, sink);
   detail::StreamTin tin(&m.hull, m.o.threads);
   std::uint64_t done = 0;
   std::vector<SpillRecord> buf;
+  std::vector<std::uint64_t> global;  // one strip's final triangles in global indices, for `mesh`
   for (std::size_t s = 0; s < strips; ++s) {
     detail::StripPoints p;
     buf.resize(spill[s].count);
@@ -278,15 +296,21 @@ StreamDemStats StreamDem::run(const StreamRowSink& sink) {
     const double seam = s + 1 < strips ? m.seams[s] : -HUGE_VAL;
     tin.addStrip(std::move(p), seam, [&](const detail::StripPoints& pts, const std::vector<index_t>& t) {
       m.stats.triangles += t.size() / 3;
-      raster.add(pts, t);
+      if (raster) raster->add(pts, t);
+      if (!mesh) return;
+      global.resize(t.size());
+      for (std::size_t i = 0; i < t.size(); ++i) global[i] = pts.index[t[i]];
+      mesh->triangles(global.data(), t.size() / 3);
     });
-    m.stats.max_rows_held = std::max(m.stats.max_rows_held, raster.rowsHeld());
-    raster.flush(s + 1 == strips);
+    if (raster) {
+      m.stats.max_rows_held = std::max(m.stats.max_rows_held, raster->rowsHeld());
+      raster->flush(s + 1 == strips);
+    }
     m.stats.max_resident = std::max(m.stats.max_resident, tin.residentPoints());
     m.stats.strips = s + 1;
     m.report("strips", done, t_strips);
   }
-  m.stats.raster = raster.stats();
+  if (raster) m.stats.raster = raster->stats();
   m.stats.strips_s = since(t_strips);
   return m.stats;
 }

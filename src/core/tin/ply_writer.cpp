@@ -17,7 +17,15 @@ PlyMeshWriter::PlyMeshWriter(const std::string& path, std::uint64_t num_vertices
   for (const auto& c : comments) h += "comment " + c + "\n";
   h +=
       "element vertex " + std::to_string(nv_) + "\nproperty double x\nproperty double y\nproperty double z\n";
-  h += "element face " + std::to_string(nf_) + "\nproperty list uchar int vertex_indices\nend_header\n";
+  h += "element face ";
+  if (nf_ == kFacesCountedAtClose) {
+    face_count_at_ = h.size();
+    face_count_width_ = std::to_string(2 * nv_).size();
+    h += std::string(face_count_width_, '0');
+  } else {
+    h += std::to_string(nf_);
+  }
+  h += "\nproperty list uchar int vertex_indices\nend_header\n";
   put(h.data(), h.size());
 }
 
@@ -46,7 +54,7 @@ void PlyMeshWriter::vertex(double x, double y, double z) {
 }
 
 void PlyMeshWriter::face(index_t a, index_t b, index_t c) {
-  if (wv_ != nv_ || wf_ >= nf_)
+  if (wv_ != nv_ || wf_ >= nf_ || (nf_ == kFacesCountedAtClose && wf_ >= 2 * nv_))
     throw Error(path_ + ": PLY face written before all vertices or beyond the count");
   unsigned char rec[13];
   rec[0] = 3;
@@ -58,8 +66,16 @@ void PlyMeshWriter::face(index_t a, index_t b, index_t c) {
 
 void PlyMeshWriter::close() {
   if (closed_) return;
-  if (wv_ != nv_ || wf_ != nf_) throw Error(path_ + ": PLY closed with missing vertices or faces");
+  const bool counted = nf_ == kFacesCountedAtClose;
+  if (wv_ != nv_ || (!counted && wf_ != nf_))
+    throw Error(path_ + ": PLY closed with missing vertices or faces");
   flush();
+  if (counted) {
+    std::string count = std::to_string(wf_);
+    count.insert(0, face_count_width_ - count.size(), '0');  // wf_ < 2 nv_: fits the width
+    out_.seek(face_count_at_);
+    out_.write(count.data(), count.size());
+  }
   out_.commit();
   closed_ = true;
 }

@@ -56,6 +56,34 @@ TEST(PlyWriter, HeaderSizesAndCompaction) {
   std::remove(path.c_str());
 }
 
+TEST(PlyWriter, FaceCountPatchedAtClose) {
+  // 60 vertices: the count is reserved as 3 digits (2 * 60 = 120) and becomes "007" at close.
+  const std::string path = tmp("counted.ply");
+  {
+    dw::tin::PlyMeshWriter w(path, 60, dw::tin::PlyMeshWriter::kFacesCountedAtClose, {"counted"});
+    for (int i = 0; i < 60; ++i) w.vertex(i, i % 7, 0.5 * i);
+    for (dw::index_t f = 0; f < 7; ++f) w.face(f, f + 1, f + 2);
+    w.close();
+  }
+  std::ifstream f(path, std::ios::binary);
+  std::string all((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const auto end = all.find("end_header\n");
+  ASSERT_NE(end, std::string::npos);
+  EXPECT_NE(all.substr(0, end).find("element vertex 60\n"), std::string::npos);
+  EXPECT_NE(all.substr(0, end).find("element face 007\n"), std::string::npos);
+  EXPECT_EQ(all.size(), end + 11 + 60 * 24 + 7 * 13);
+  std::int32_t last[3];
+  std::memcpy(last, all.data() + all.size() - 12, 12);
+  EXPECT_EQ(last[0], 6);
+  EXPECT_EQ(last[2], 8);
+  // More faces than a triangulation of the vertices can have are refused.
+  dw::tin::PlyMeshWriter w(path, 2, dw::tin::PlyMeshWriter::kFacesCountedAtClose);
+  w.vertex(0, 0, 0), w.vertex(1, 0, 0);
+  for (int i = 0; i < 4; ++i) w.face(0, 1, 0);
+  EXPECT_THROW(w.face(0, 1, 0), dw::Error);
+  std::remove(path.c_str());
+}
+
 TEST(PlyWriter, MisuseAndIoErrors) {
   {
     dw::tin::PlyMeshWriter w(tmp("bad.ply"), 1, 1);

@@ -34,6 +34,7 @@ struct StreamDemOptions {
   double max_edge = 0, nodata = -9999;
   std::size_t memory_limit_mb = 1024;  ///< sets the strip height (points per strip)
   unsigned threads = 0;
+  bool raster = true;  ///< false: no grid and no rows, only the mesh sink (resolution unused)
 };
 
 struct StreamDemProgress {
@@ -53,16 +54,29 @@ struct StreamDemStats {
 
 using StreamRowSink = std::function<void(std::size_t row_begin, std::size_t rows, const double* values)>;
 
+/// The streamed TIN itself. `vertex` gets every kept point once, in input order (its global index is
+/// the number of calls before it), world x, y, z, during pass 2, before any triangle; `triangles` gets
+/// each final triangle of the whole cloud's TIN once, as `count` triples of global indices,
+/// counter-clockwise, strip after strip. Duplicate points are vertices that no triangle uses (the
+/// in-memory TIN's choice of the one that is used).
+struct StreamMeshSink {
+  std::function<void(double x, double y, double z)> vertex;
+  std::function<void(const std::uint64_t* triangles, std::size_t count)> triangles;
+};
+
 class StreamDem {
  public:
   /// Runs pass 1 (throws dw::Error on a bad file, on no kept points, or on tiles on another grid).
   explicit StreamDem(const StreamDemOptions& options,
                      std::function<void(const StreamDemProgress&)> progress = nullptr);
   ~StreamDem();
-  /// The raster's grid in world units (the GeoTIFF's).
+  /// The raster's grid in world units (the GeoTIFF's); empty without options.raster.
   const RasterGrid& grid() const;
-  /// Pass 2 and the strips; every row goes to `sink` once, in order.
-  StreamDemStats run(const StreamRowSink& sink);
+  /// The kept points, known after pass 1 (the streamed mesh's vertex count).
+  std::uint64_t points() const;
+  /// Pass 2 and the strips; with options.raster every row goes to `sink` once, in order; with `mesh`
+  /// its vertices and final triangles go there as described at StreamMeshSink.
+  StreamDemStats run(const StreamRowSink& sink, const StreamMeshSink* mesh = nullptr);
 
  private:
   struct Impl;

@@ -18,6 +18,11 @@ namespace tin {
 
 class PlyMeshWriter {
  public:
+  /// As num_faces: the face count is whatever was written, patched into the header by close(). The
+  /// header then holds it zero-padded to the digits of 2 * num_vertices (a triangulation of n points
+  /// has fewer than 2n triangles), and `path` must be a regular file (the header is rewritten).
+  static constexpr std::uint64_t kFacesCountedAtClose = ~std::uint64_t(0);
+
   /// Opens `path` and writes a binary little-endian header for `num_vertices` (double x, y, z) and
   /// `num_faces` triangles (uchar count, int32 indices). `comments` become header comment lines.
   PlyMeshWriter(const std::string& path, std::uint64_t num_vertices, std::uint64_t num_faces,
@@ -39,6 +44,8 @@ class PlyMeshWriter {
   SafeOutputFile out_;
   bool closed_ = false;
   std::uint64_t nv_, nf_, wv_ = 0, wf_ = 0;
+  std::uint64_t face_count_at_ = 0;  ///< offset of the padded face count (kFacesCountedAtClose)
+  std::size_t face_count_width_ = 0;
   std::vector<unsigned char> buf_;
   std::size_t used_ = 0;
 };

@@ -1,0 +1,25 @@
+# `dw_tin --stream --dem` writes the in-memory dw_dem raster's cells bit for bit (one DEM stage,
+# apps/stream_stage.h and apps/dem_stage.h), in at least MIN_STRIPS strips, and its PLY alongside:
+# both rasters are converted to raw ENVI cells by gdal_translate and compared.
+separate_arguments(args UNIX_COMMAND "${ARGS}")
+execute_process(COMMAND ${DEM} ${IN} -o ${OUT}_dem.tif ${args} --quiet RESULT_VARIABLE a OUTPUT_QUIET)
+execute_process(COMMAND ${TIN} ${IN} --dem ${OUT}_tin.tif -o ${OUT}_tin.ply ${args} --stream --memory-limit ${MB}
+  --quiet RESULT_VARIABLE b OUTPUT_VARIABLE log ERROR_VARIABLE err)
+if(NOT a EQUAL 0 OR NOT b EQUAL 0)
+  message(FATAL_ERROR "dw_dem exited ${a}, dw_tin --stream --dem ${b}: ${err}")
+endif()
+if(NOT log MATCHES "strips ([0-9]+)" OR CMAKE_MATCH_1 LESS ${MIN_STRIPS})
+  message(FATAL_ERROR "fewer than ${MIN_STRIPS} strips: ${log}")
+endif()
+foreach(k dem tin)
+  execute_process(COMMAND ${TRANSLATE} -q -of ENVI ${OUT}_${k}.tif ${OUT}_${k}.raw RESULT_VARIABLE rc)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "gdal_translate failed on ${OUT}_${k}.tif")
+  endif()
+endforeach()
+file(SHA256 ${OUT}_dem.raw h1)
+file(SHA256 ${OUT}_tin.raw h2)
+if(NOT h1 STREQUAL h2)
+  message(FATAL_ERROR "dw_tin --stream --dem's cells differ from dw_dem's")
+endif()
+message(STATUS "same cells ${h1}: ${log}")

@@ -1,0 +1,20 @@
+# dw_tin --stream writes the in-memory dw_tin's triangles (as canonical sets of vertex coordinates,
+# ply_same_triangles) in at least MIN_STRIPS strips, every face index addressing a vertex.
+separate_arguments(args UNIX_COMMAND "${ARGS}")
+execute_process(COMMAND ${TIN} ${IN} -o ${OUT}_mem.ply ${args} --quiet RESULT_VARIABLE a OUTPUT_QUIET)
+execute_process(COMMAND ${TIN} ${IN} -o ${OUT}_str.ply ${args} --stream --memory-limit ${MB} --quiet
+  RESULT_VARIABLE b OUTPUT_VARIABLE log)
+if(NOT a EQUAL 0 OR NOT b EQUAL 0)
+  message(FATAL_ERROR "dw_tin exited ${a}, dw_tin --stream ${b}: ${log}")
+endif()
+if(NOT log MATCHES "strips ([0-9]+)")
+  message(FATAL_ERROR "no strip count in: ${log}")
+endif()
+if(CMAKE_MATCH_1 LESS ${MIN_STRIPS})
+  message(FATAL_ERROR "only ${CMAKE_MATCH_1} strips: ${log}")
+endif()
+execute_process(COMMAND ${SAME} ${OUT}_mem.ply ${OUT}_str.ply RESULT_VARIABLE rc OUTPUT_VARIABLE same)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "the streamed PLY differs from the in-memory PLY: ${same}")
+endif()
+message(STATUS "${same}${log}")
