@@ -12,16 +12,21 @@ namespace dw {
 
 std::vector<float> voxelDownsample(const PointView& points, double leaf) {
   std::vector<float> out;
+  if (!(leaf > 0)) {
+    // Full resolution runs every frame of a localizer: one pass straight into the output, no copy.
+    out.reserve(3 * points.size);
+    for (std::size_t i = 0; i < points.size; ++i) {
+      const auto p = points[i];
+      if (std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]))
+        out.insert(out.end(), {float(p[0]), float(p[1]), float(p[2])});
+    }
+    return out;
+  }
   std::vector<std::array<double, 3>> finite;
   finite.reserve(points.size);
   for (std::size_t i = 0; i < points.size; ++i) {
     const auto p = points[i];
     if (std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])) finite.push_back(p);
-  }
-  if (!(leaf > 0)) {
-    out.reserve(3 * finite.size());
-    for (const auto& p : finite) out.insert(out.end(), {float(p[0]), float(p[1]), float(p[2])});
-    return out;
   }
   if (finite.empty()) return out;
   // Voxel indices as three 64-bit integers; a point whose index would not fit (|x| / leaf >= 2^62,
