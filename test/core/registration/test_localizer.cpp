@@ -230,6 +230,18 @@ TEST(VoxelDownsample, OneCentroidPerOccupiedVoxelInKeyOrder) {
   EXPECT_FLOAT_EQ(kept[0], 0.5f);
 }
 
+TEST(VoxelDownsample, FullResolutionKeepsTheFinitePointsOfAnyView) {
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  // x, y, z, intensity: a strided float view, as PCL's PointXYZI lays it out.
+  const std::vector<float> xyzi = {1.25f, -2.5f, 3.0f, 9, nan, 0, 0, 9, 0, inf, 0, 9, -0.125f, 7.5f, 1e-30f, 9};
+  const std::vector<float> want = {1.25f, -2.5f, 3.0f, -0.125f, 7.5f, 1e-30f};
+  EXPECT_EQ(dw::voxelDownsample(dw::PointView::fromFloat(xyzi.data(), 4, 4 * sizeof(float)), 0), want);
+  std::vector<double> xyz;
+  for (std::size_t i = 0; i < 4; ++i)
+    for (int c = 0; c < 3; ++c) xyz.push_back(double(xyzi[4 * i + std::size_t(c)]));
+  EXPECT_EQ(dw::voxelDownsample(dw::PointView::fromDouble(xyz.data(), 4), 0), want);
+}
+
 TEST(KittiPoses, RoundTripAndErrorsNameTheLine) {
   const auto poses = dw_test::arcTrajectory(4);
   const std::string path = tempPath("poses.txt");
