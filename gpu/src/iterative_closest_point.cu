@@ -22,12 +22,16 @@ constexpr int kSums = 17;  // count, sum q (3), sum t (3), sum q t^T (9), sum d2
 
 /// Solver state of one source, in device memory. Composite transform: target_local = r * p + t with p
 /// relative to the source centroid c; the float copy is what the correspondence kernel applies (PCL
-/// likewise transforms a float copy of the source).
+/// likewise transforms a float copy of the source). With move_source_in_float, inc is the last step in
+/// the world frame (row-major 3x4; before the first iteration the guess), which moveKernel applies to
+/// the moved source, and keep_moved marks a guess that is exactly the identity (the source is copied,
+/// as dw::alignIcp skips that move).
 struct SourceState {
   double r[9], t[3], c[3];
+  double inc[12];
   double prev_mse, mse;
   float rf[12];
-  int iterations, similar, state, done;
+  int iterations, similar, state, done, keep_moved;
   unsigned count;
 };
 
@@ -89,6 +93,10 @@ __device__ void solveStep(SourceState& st, const double* acc, const SolveParams&
   for (int a = 0; a < 3; ++a)
     tw[a] = ts[a] + prm.origin[a] -
             (rs[3 * a] * prm.origin[0] + rs[3 * a + 1] * prm.origin[1] + rs[3 * a + 2] * prm.origin[2]);
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) st.inc[4 * a + b] = rs[3 * a + b];
+    st.inc[4 * a + 3] = tw[a];
+  }
   bool similar = false;
   if (st.iterations >= prm.max_iterations) {
     if (!prm.failure_after_max) {
@@ -145,20 +153,50 @@ __device__ void solveStep(SourceState& st, const double* acc, const SolveParams&
 /// raised the registers and cut the walks in flight ~3x, an iteration about 3x slower (docs/gpu.md).
 constexpr int kWalkBlock = 128;  // as DelaunayWalk::nearest: 44 registers fit 11 such blocks per SM
 
-template <int G>
+/// x' = T x rounded to float, T row-major 3x4 in double, in dw::alignIcp's (and PCL's
+/// transformPointCloud's) operation order with every product and sum rounded on its own: translation
+/// first, then the x, y, z columns. The host build has no FMA, so the host loop rounds the same way.
+__device__ __forceinline__ float4 movePoint(const double* t, float4 p) {
+  const double c[3] = {p.x, p.y, p.z};
+  float out[3];
+#pragma unroll
+  for (int r = 0; r < 3; ++r) {
+    double v = t[4 * r + 3];
+#pragma unroll
+    for (int k = 0; k < 3; ++k) v = __dadd_rn(__dmul_rn(c[k], t[4 * r + k]), v);
+    out[r] = __double2float_rn(v);
+  }
+  return make_float4(out[0], out[1], out[2], p.w);
+}
+
+/// A moved source point (world frame, float) in the target's local frame: the walk's query.
+__device__ __forceinline__ float3 movedQuery(float4 m, double3 o) {
+  return make_float3(__double2float_rn(__dsub_rn(m.x, o.x)), __double2float_rn(__dsub_rn(m.y, o.y)),
+                     __double2float_rn(__dsub_rn(m.z, o.z)));
+}
+
+/// kMoved: the query is the moved source point (move_source_in_float), else the point transformed by
+/// its source's current float estimate.
+template <int G, bool kMoved>
 __global__ void __launch_bounds__(kWalkBlock)
     correspondKernel(DeviceGraphView g, const float4* __restrict__ pts,
                      const std::uint32_t* __restrict__ point_source, std::uint32_t n,
-                     const SourceState* __restrict__ states, double max_dist2,
+                     const SourceState* __restrict__ states, double max_dist2, double3 origin,
                      std::uint32_t* __restrict__ hints, float* __restrict__ corr_d2) {
   const std::size_t i = (std::size_t(blockIdx.x) * kWalkBlock + threadIdx.x) / G;
   if (i >= n) return;  // tile-uniform: its lanes share i
   const SourceState& st = states[point_source[i]];
   if (st.done) return;
   const float4 p = pts[i];
-  const float qx = fmaf(st.rf[0], p.x, fmaf(st.rf[1], p.y, fmaf(st.rf[2], p.z, st.rf[9])));
-  const float qy = fmaf(st.rf[3], p.x, fmaf(st.rf[4], p.y, fmaf(st.rf[5], p.z, st.rf[10])));
-  const float qz = fmaf(st.rf[6], p.x, fmaf(st.rf[7], p.y, fmaf(st.rf[8], p.z, st.rf[11])));
+  float qx, qy, qz;
+  if constexpr (kMoved) {
+    const float3 q = movedQuery(p, origin);
+    qx = q.x, qy = q.y, qz = q.z;
+  } else {
+    qx = fmaf(st.rf[0], p.x, fmaf(st.rf[1], p.y, fmaf(st.rf[2], p.z, st.rf[9])));
+    qy = fmaf(st.rf[3], p.x, fmaf(st.rf[4], p.y, fmaf(st.rf[5], p.z, st.rf[10])));
+    qz = fmaf(st.rf[6], p.x, fmaf(st.rf[7], p.y, fmaf(st.rf[8], p.z, st.rf[11])));
+  }
   float out = -1.f;  // rejected (no vertex, non-finite, or beyond the distance)
   std::uint32_t v = hints[i];
   if (g.num_vertices != 0 && detail::finite3(qx, qy, qz)) {
@@ -183,9 +221,10 @@ __global__ void __launch_bounds__(kWalkBlock)
 /// The 17 sums of the accepted correspondences, per source: each block strides over its source's
 /// points (recomputing q exactly as the walk did), reduces in double, writes a partial; the last block
 /// of a source (atomic ticket, the classic threadfence reduction) sums the partials in a fixed order,
-/// so the result is deterministic and the same whether the source is alone or in a batch.
+/// so the result is deterministic and the same whether the source is alone or in a batch. With `moved`,
+/// pts are the moved source (world frame) and q is pts - origin in double.
 __global__ void __launch_bounds__(kBlock)
-    accumulateKernel(DeviceGraphView g, const float4* __restrict__ pts,
+    accumulateKernel(DeviceGraphView g, const float4* __restrict__ pts, bool moved, double3 origin,
                      const std::uint32_t* __restrict__ hints, const float* __restrict__ corr_d2,
                      const std::uint32_t* __restrict__ block_source, const std::uint32_t* __restrict__ meta,
                      const SourceState* __restrict__ states, double* __restrict__ partials, unsigned* tickets,
@@ -207,9 +246,14 @@ __global__ void __launch_bounds__(kBlock)
     const float d2 = corr_d2[i];
     if (!(d2 >= 0.f)) continue;
     const float4 p = pts[i];
-    const double x = fmaf(m[0], p.x, fmaf(m[1], p.y, fmaf(m[2], p.z, m[9])));
-    const double y = fmaf(m[3], p.x, fmaf(m[4], p.y, fmaf(m[5], p.z, m[10])));
-    const double z = fmaf(m[6], p.x, fmaf(m[7], p.y, fmaf(m[8], p.z, m[11])));
+    double x, y, z;
+    if (moved) {
+      x = __dsub_rn(p.x, origin.x), y = __dsub_rn(p.y, origin.y), z = __dsub_rn(p.z, origin.z);
+    } else {
+      x = fmaf(m[0], p.x, fmaf(m[1], p.y, fmaf(m[2], p.z, m[9])));
+      y = fmaf(m[3], p.x, fmaf(m[4], p.y, fmaf(m[5], p.z, m[10])));
+      z = fmaf(m[6], p.x, fmaf(m[7], p.y, fmaf(m[8], p.z, m[11])));
+    }
     const float4 t = __ldg(g.points + hints[i]);
     const double tx = t.x, ty = t.y, tz = t.z;
     acc[0] += 1.0;
@@ -270,27 +314,62 @@ __global__ void __launch_bounds__(kBlock)
   if (threadIdx.x == 0) tickets[s] = 0;
 }
 
+/// What one correspondence launch reads and writes.
+struct CorrespondArgs {
+  DeviceGraphView g;
+  const float4* pts;  ///< the centred source, or the moved source when `moved`
+  bool moved;
+  const std::uint32_t* point_source;
+  std::size_t n;
+  const SourceState* states;
+  double max_dist2;
+  double3 origin;
+  std::uint32_t* hints;
+  float* corr_d2;
+};
+
 template <int G>
-void launchCorrespond(const DeviceGraphView& g, const float4* pts, const std::uint32_t* point_source,
-                      std::size_t n, const SourceState* states, double max_dist2, std::uint32_t* hints,
-                      float* corr_d2, cudaStream_t stream) {
-  const auto blocks = unsigned((n * G + kWalkBlock - 1) / kWalkBlock);
-  correspondKernel<G><<<blocks, kWalkBlock, 0, stream>>>(g, pts, point_source, std::uint32_t(n), states,
-                                                         max_dist2, hints, corr_d2);
+void launchCorrespond(const CorrespondArgs& a, cudaStream_t stream) {
+  const auto blocks = unsigned((a.n * G + kWalkBlock - 1) / kWalkBlock);
+  const auto n = std::uint32_t(a.n);
+  if (a.moved)
+    correspondKernel<G, true><<<blocks, kWalkBlock, 0, stream>>>(a.g, a.pts, a.point_source, n, a.states,
+                                                                 a.max_dist2, a.origin, a.hints, a.corr_d2);
+  else
+    correspondKernel<G, false><<<blocks, kWalkBlock, 0, stream>>>(a.g, a.pts, a.point_source, n, a.states,
+                                                                  a.max_dist2, a.origin, a.hints, a.corr_d2);
 }
 
 /// The walk kernel for the target's group size (the lanes are a template parameter of the kernel).
-void launchCorrespondFor(int group_size, const DeviceGraphView& g, const float4* pts,
-                         const std::uint32_t* point_source, std::size_t n, const SourceState* states,
-                         double max_dist2, std::uint32_t* hints, float* corr_d2, cudaStream_t stream) {
+void launchCorrespondFor(int group_size, const CorrespondArgs& a, cudaStream_t stream) {
   switch (group_size) {
-    case 1: launchCorrespond<1>(g, pts, point_source, n, states, max_dist2, hints, corr_d2, stream); break;
-    case 2: launchCorrespond<2>(g, pts, point_source, n, states, max_dist2, hints, corr_d2, stream); break;
-    case 8: launchCorrespond<8>(g, pts, point_source, n, states, max_dist2, hints, corr_d2, stream); break;
-    case 16: launchCorrespond<16>(g, pts, point_source, n, states, max_dist2, hints, corr_d2, stream); break;
-    case 32: launchCorrespond<32>(g, pts, point_source, n, states, max_dist2, hints, corr_d2, stream); break;
-    default: launchCorrespond<4>(g, pts, point_source, n, states, max_dist2, hints, corr_d2, stream); break;
+    case 1: launchCorrespond<1>(a, stream); break;
+    case 2: launchCorrespond<2>(a, stream); break;
+    case 8: launchCorrespond<8>(a, stream); break;
+    case 16: launchCorrespond<16>(a, stream); break;
+    case 32: launchCorrespond<32>(a, stream); break;
+    default: launchCorrespond<4>(a, stream); break;
   }
+}
+
+/// move_source_in_float: the moved source before the first iteration, every point by its source's
+/// guess (st.inc), or copied where the guess is exactly the identity.
+__global__ void seedMovedKernel(const float4* __restrict__ pts, const std::uint32_t* __restrict__ point_source,
+                                std::uint32_t n, const SourceState* __restrict__ states,
+                                float4* __restrict__ moved) {
+  const std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const SourceState& st = states[point_source[i]];
+  moved[i] = st.keep_moved ? pts[i] : movePoint(st.inc, pts[i]);
+}
+
+/// move_source_in_float: every point of a running source moved by the step just taken, in place.
+__global__ void moveKernel(const std::uint32_t* __restrict__ point_source, std::uint32_t n,
+                           const SourceState* __restrict__ states, float4* __restrict__ moved) {
+  const std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const SourceState& st = states[point_source[i]];
+  if (!st.done) moved[i] = movePoint(st.inc, moved[i]);
 }
 
 /// The step of every source still running, one thread each. Kept out of the walk kernel: the 4x4
@@ -364,6 +443,9 @@ SourceState initialState(const Matrix4d& g, const double c[3], const std::array<
   }
   for (int k = 0; k < 9; ++k) st.rf[k] = float(st.r[k]);
   for (int a = 0; a < 3; ++a) st.rf[9 + a] = float(st.t[a]);
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 4; ++b) st.inc[4 * a + b] = g[4 * a + b];
+  st.keep_moved = g == identityMatrix4d() ? 1 : 0;
   st.prev_mse = std::numeric_limits<double>::max();
   st.state = int(ConvergenceState::NotConverged);
   return st;
@@ -453,53 +535,68 @@ void IterativeClosestPoint::setInputSource(const dw::PointView& source) {
   addSource(source);
 }
 
+namespace {
+
+/// A stable least-significant-digit counting sort of `order` by 30-bit keys, three 10-bit digits.
+/// Linear, where a comparison sort of a 120k-point scan cost several milliseconds of the frame.
+void sortByKey30(const std::vector<std::uint32_t>& key, std::vector<std::uint32_t>& order) {
+  std::vector<std::uint32_t> tmp(order.size());
+  std::vector<std::uint32_t> count(1025);
+  for (int shift = 0; shift < 30; shift += 10) {
+    std::fill(count.begin(), count.end(), 0u);
+    for (std::uint32_t i : order) ++count[((key[i] >> shift) & 1023u) + 1];
+    for (std::size_t d = 1; d < count.size(); ++d) count[d] += count[d - 1];
+    for (std::uint32_t i : order) tmp[count[(key[i] >> shift) & 1023u]++] = i;
+    order.swap(tmp);
+  }
+}
+
+}  // namespace
+
 std::size_t IterativeClosestPoint::addSource(const dw::PointView& source) {
   if (total_inputs_ + source.size >= kInvalid)
     throw dw::Error("dw::gpu::IterativeClosestPoint: sources too large for 32-bit device indices");
-  std::vector<std::array<double, 3>> pts;
-  std::vector<std::uint32_t> caller;  // caller index of each kept point
-  pts.reserve(source.size);
-  caller.reserve(source.size);
-  for (std::size_t i = 0; i < source.size; ++i) {
-    const auto p = source[i];
-    if (std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])) {
-      pts.push_back(p);
-      caller.push_back(std::uint32_t(total_inputs_ + i));
-    }
-  }
   HostSource hs;
   hs.begin = host_points_.size();
-  hs.size = pts.size();
   hs.input_begin = total_inputs_;
+  // Moved in float, the source keeps the caller's float coordinates (centroid 0), as dw::alignIcp does.
+  hs.moved = params_.move_source_in_float;
+  std::vector<std::uint32_t> kept;  // source index of each finite point
+  kept.reserve(source.size);
+  double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, sum[3] = {0, 0, 0};
+  for (std::size_t i = 0; i < source.size; ++i) {
+    const auto p = source[i];
+    if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]))) continue;
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = kept.empty() ? p[a] : std::min(lo[a], p[a]);
+      hi[a] = kept.empty() ? p[a] : std::max(hi[a], p[a]);
+      sum[a] += p[a];
+    }
+    kept.push_back(std::uint32_t(i));
+  }
+  hs.size = kept.size();
   total_inputs_ += source.size;
-  double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-  if (!pts.empty()) {
-    for (int a = 0; a < 3; ++a) lo[a] = hi[a] = pts[0][a];
-    for (const auto& p : pts)
-      for (int a = 0; a < 3; ++a) {
-        hs.centroid[a] += p[a];
-        lo[a] = std::min(lo[a], p[a]);
-        hi[a] = std::max(hi[a], p[a]);
-      }
-    for (int a = 0; a < 3; ++a) hs.centroid[a] /= double(pts.size());
-  }
+  if (!kept.empty() && !hs.moved)
+    for (int a = 0; a < 3; ++a) hs.centroid[a] = sum[a] / double(kept.size());
   // Morton order: consecutive queries then walk through neighbouring vertices (shared cache lines),
-  // the same reason the graph's vertices are stored in this order.
-  std::vector<std::uint64_t> key(pts.size());
+  // the same reason the graph's vertices are stored in this order. 1024 cells per axis of the scan's
+  // extent (~10 cm at 100 m) order the walks as well as finer keys; equal keys keep the input order.
+  std::vector<std::uint32_t> key(source.size, 0u);
   const double ext = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-300});
-  for (std::size_t i = 0; i < pts.size(); ++i) {
+  for (std::uint32_t i : kept) {
+    const auto p = source[i];
     std::uint32_t c[3];
-    for (int a = 0; a < 3; ++a)
-      c[a] = std::uint32_t(std::min(1048575.0, (pts[i][a] - lo[a]) / ext * 1048576.0));
-    key[i] = dw::mortonKey(c[0], c[1], c[2]);
+    for (int a = 0; a < 3; ++a) c[a] = std::uint32_t(std::min(1023.0, (p[a] - lo[a]) / ext * 1024.0));
+    key[i] = std::uint32_t(dw::mortonKey(c[0], c[1], c[2]));
   }
-  std::vector<std::size_t> order(pts.size());
-  std::iota(order.begin(), order.end(), std::size_t(0));
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return key[a] < key[b]; });
-  for (std::size_t i : order) {
-    host_points_.push_back(make_float4(float(pts[i][0] - hs.centroid[0]), float(pts[i][1] - hs.centroid[1]),
-                                       float(pts[i][2] - hs.centroid[2]), 0.f));
-    host_input_index_.push_back(caller[i]);
+  sortByKey30(key, kept);
+  host_points_.reserve(host_points_.size() + kept.size());
+  host_input_index_.reserve(host_input_index_.size() + kept.size());
+  for (std::uint32_t i : kept) {
+    const auto p = source[i];
+    host_points_.push_back(make_float4(float(p[0] - hs.centroid[0]), float(p[1] - hs.centroid[1]),
+                                       float(p[2] - hs.centroid[2]), 0.f));
+    host_input_index_.push_back(std::uint32_t(hs.input_begin + i));
   }
   sources_.push_back(hs);
   dirty_ = true;
@@ -556,6 +653,7 @@ void IterativeClosestPoint::uploadLayout() {
   stage(input_index_, host_input_index_.data(), n);
   hints_.create(n);
   corr_d2_.create(n);
+  moved_.create(params_.move_source_in_float ? n : 0);
   partials_.create(std::max<std::size_t>(1, block_source.size()) * kSums);
   states_.create(sources_.size() * sizeof(SourceState));
   tickets_.create(sources_.size());
@@ -575,6 +673,12 @@ std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4
   if (ns == 0) throw dw::Error("dw::gpu::IterativeClosestPoint: no source set");
   if (!guesses.empty() && guesses.size() != ns)
     throw dw::Error("dw::gpu::IterativeClosestPoint::alignAll: one guess per source, or none");
+  const bool moved = params_.move_source_in_float;
+  for (const HostSource& hs : sources_)
+    if (hs.moved != moved)
+      throw dw::Error(
+          "dw::gpu::IterativeClosestPoint: move_source_in_float changed after the sources were added; "
+          "add them again");
   if (dirty_) uploadLayout();
   const auto& o = target_->origin();
 
@@ -585,6 +689,13 @@ std::vector<IcpResult> IterativeClosestPoint::alignAll(const std::vector<Matrix4
       cudaMemcpyAsync(states_.ptr(), init.data(), ns * sizeof(SourceState), cudaMemcpyHostToDevice, stream_),
       "ICP: upload state");
   seedHints();
+  const std::size_t n = host_points_.size();
+  if (moved && n) {
+    seedMovedKernel<<<unsigned((n + 255) / 256), 256, 0, stream_>>>(
+        points_.ptr(), point_source_.ptr(), std::uint32_t(n), reinterpret_cast<const SourceState*>(states_.ptr()),
+        moved_.ptr());
+    checkCuda(cudaGetLastError(), "ICP: seed the moved source");
+  }
   checkCuda(cudaMemsetAsync(done_count_.ptr(), 0, sizeof(unsigned), stream_), "ICP: reset");
   checkCuda(cudaMemsetAsync(tickets_.ptr(), 0, tickets_.size() * sizeof(unsigned), stream_),
             "ICP: reset tickets");
@@ -642,6 +753,10 @@ void IterativeClosestPoint::runIterations() {
   const std::size_t ns = sources_.size();
   const SolveParams prm = solveParams(params_, target_->origin());
   auto* state_ptr = reinterpret_cast<SourceState*>(states_.ptr());
+  const bool moved = params_.move_source_in_float;
+  const std::size_t n = host_points_.size();
+  const float4* pts = moved ? moved_.ptr() : points_.ptr();
+  const double3 origin = make_double3(target_->origin()[0], target_->origin()[1], target_->origin()[2]);
   volatile unsigned* done_flag = done_host_;
   *done_flag = 0;
   emptySourcesKernel<<<unsigned((ns + 127) / 128), 128, 0, stream_>>>(source_meta_.ptr(), std::uint32_t(ns),
@@ -658,15 +773,18 @@ void IterativeClosestPoint::runIterations() {
     if (it >= kAhead) checkCuda(cudaEventSynchronize(events_[it % kAhead]), "ICP: throttle");
     if (*done_flag >= ns) break;
     if (num_blocks_ > 0) {
-      const DeviceGraphView g = target_->view();
-      launchCorrespondFor(target_->groupSize(), g, points_.ptr(), point_source_.ptr(), host_points_.size(),
-                          state_ptr, prm.max_dist2, hints_.ptr(), corr_d2_.ptr(), stream_);
+      const CorrespondArgs a{target_->view(), pts, moved,         point_source_.ptr(), n,
+                             state_ptr,       prm.max_dist2, origin, hints_.ptr(),       corr_d2_.ptr()};
+      launchCorrespondFor(target_->groupSize(), a, stream_);
       accumulateKernel<<<num_blocks_, kBlock, 0, stream_>>>(
-          g, points_.ptr(), hints_.ptr(), corr_d2_.ptr(), block_source_.ptr(), source_meta_.ptr(), state_ptr,
-          partials_.ptr(), tickets_.ptr(), sums_.ptr());
+          a.g, pts, moved, origin, hints_.ptr(), corr_d2_.ptr(), block_source_.ptr(), source_meta_.ptr(),
+          state_ptr, partials_.ptr(), tickets_.ptr(), sums_.ptr());
     }
     solveKernel<<<unsigned((ns + 31) / 32), 32, 0, stream_>>>(sums_.ptr(), std::uint32_t(ns), state_ptr, prm,
                                                               done_count_.ptr(), done_host_dev_);
+    if (moved && n)
+      moveKernel<<<unsigned((n + 255) / 256), 256, 0, stream_>>>(point_source_.ptr(), std::uint32_t(n), state_ptr,
+                                                                  moved_.ptr());
     checkCuda(cudaGetLastError(), "ICP: iteration launch");
     checkCuda(cudaEventRecord(events_[it % kAhead], stream_), "ICP: event");
   }

@@ -2,12 +2,10 @@
 #include "pcl_delaunay_walk/gpu/localizer.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <vector>
 
 #include "pcl_delaunay_walk/core/graph/graph_io.h"
-#include "pcl_delaunay_walk/core/registration/voxel_downsample.h"
 
 namespace dw {
 namespace gpu {
@@ -78,6 +76,7 @@ IcpParameters icpParametersFor(const dw::IcpOptions& o) {
   p.failure_after_max_iterations = false;
   p.max_iterations_similar_transforms = 0;
   p.float_transform_criteria = false;  // dw::alignIcp tests the increment in double
+  p.move_source_in_float = true;       // and moves the scan in float by each increment
   return p;
 }
 
@@ -120,34 +119,20 @@ void Localizer::setOptions(const LocalizerOptions& options) {
 }
 
 FrameResult Localizer::registerScan(const PointView& scan) {
-  const auto t0 = std::chrono::steady_clock::now();
-  FrameResult r;
-  const Eigen::Matrix4d guess = predictedPose();
-  r.pose = guess;
-  auto finish = [&](FrameStatus status) {
-    track_.finish(r, status, guess);
-    r.latency_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return r;
-  };
-  if (scan.size == 0) return finish(FrameStatus::EmptyScan);
-  const std::vector<float> pts = voxelDownsample(scan, options_.voxel);
-  r.points = pts.size() / 3;
-  if (r.points == 0) return finish(FrameStatus::NoFinitePoints);
-  // A guess that is not finite (a caller's setPose) moves every point to NaN in the CPU loop, which then
-  // finds no correspondence; the device loop refuses such a guess, so the frame ends here the same way.
-  if (!guess.allFinite()) {
-    r.convergence = IcpConvergence::NoCorrespondences;
-    return finish(FrameStatus::NoCorrespondences);
-  }
-  icp_->setInputSource(PointView::fromFloat(pts.data(), r.points));
-  const IcpResult icp = icp_->align(toRowMajor(guess));
-  r.iterations = icp.iterations;
-  r.convergence = convergenceOf(icp.state);
-  r.fitness = double(icp.correspondences) / double(r.points);
-  r.rmse = std::sqrt(icp.mse);
-  if (r.convergence != IcpConvergence::NoCorrespondences) r.pose = fromRowMajor(icp.transformation);
-  return finish(FrameTrack::registeredStatus(r.convergence, r.fitness, r.rmse, r.pose, options_.min_fitness,
-                                             options_.max_rmse));
+  const FrameRules rules{options_.voxel, options_.constant_velocity, options_.min_fitness, options_.max_rmse};
+  return track_.registerFrame(scan, rules, [&](const std::vector<float>& pts, const Eigen::Matrix4d& guess) {
+    icp_->setInputSource(PointView::fromFloat(pts.data(), pts.size() / 3));
+    const IcpResult icp = icp_->align(toRowMajor(guess));
+    dw::IcpResult out;
+    out.transform = fromRowMajor(icp.transformation);
+    out.iterations = icp.iterations;
+    out.convergence = convergenceOf(icp.state);
+    out.converged = icp.converged;
+    out.valid_points = pts.size() / 3;
+    out.correspondences = icp.correspondences;
+    out.mse = icp.mse;
+    return out;  // search_seconds stays 0: the search runs inside the device loop
+  });
 }
 
 }  // namespace gpu

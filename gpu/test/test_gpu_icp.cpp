@@ -154,26 +154,32 @@ TEST_F(GpuIcp, BatchEqualsOneByOne) {
   p.max_correspondence_distance = 0.02;
   p.transformation_epsilon = 1e-12;
   p.euclidean_fitness_epsilon = 1e-7;
-  IterativeClosestPoint batch(target.gpu);
-  batch.setParameters(p);
-  for (const auto& s : sources) batch.addSource(dw::PointView::fromDouble(s.data(), s.size() / 3));
-  std::vector<dw::gpu::Matrix4d> guesses(sources.size(), dw::gpu::identityMatrix4d());
-  guesses[1][3] = 0.001;  // one non-identity guess
-  const auto all = batch.alignAll(guesses);
-  ASSERT_EQ(all.size(), sources.size());
-  for (std::size_t s = 0; s + 1 < sources.size(); ++s) {
-    IterativeClosestPoint one(target.gpu);
-    one.setParameters(p);
-    one.setInputSource(dw::PointView::fromDouble(sources[s].data(), sources[s].size() / 3));
-    const auto r = one.align(guesses[s]);
-    EXPECT_EQ(r.transformation, all[s].transformation) << "source " << s;  // same arithmetic, same order
-    EXPECT_EQ(r.iterations, all[s].iterations);
-    EXPECT_EQ(r.state, all[s].state);
+  // Both ways of moving the source: each moved point depends on its own source's steps only.
+  for (bool moved : {false, true}) {
+    p.move_source_in_float = moved;
+    IterativeClosestPoint batch(target.gpu);
+    batch.setParameters(p);
+    for (const auto& s : sources) batch.addSource(dw::PointView::fromDouble(s.data(), s.size() / 3));
+    std::vector<dw::gpu::Matrix4d> guesses(sources.size(), dw::gpu::identityMatrix4d());
+    guesses[1][3] = 0.001;  // one non-identity guess
+    const auto all = batch.alignAll(guesses);
+    ASSERT_EQ(all.size(), sources.size());
+    for (std::size_t s = 0; s + 1 < sources.size(); ++s) {
+      IterativeClosestPoint one(target.gpu);
+      one.setParameters(p);
+      one.setInputSource(dw::PointView::fromDouble(sources[s].data(), sources[s].size() / 3));
+      const auto r = one.align(guesses[s]);
+      // same arithmetic, same order
+      EXPECT_EQ(r.transformation, all[s].transformation) << "source " << s << " moved " << moved;
+      EXPECT_EQ(r.iterations, all[s].iterations);
+      EXPECT_EQ(r.state, all[s].state);
+      EXPECT_GT(r.iterations, 1);
+    }
+    EXPECT_EQ(all.back().state, ConvergenceState::NoCorrespondences);
+    EXPECT_FALSE(all.back().converged);
+    EXPECT_EQ(all.back().iterations, 0);
+    EXPECT_EQ(all.back().transformation, dw::gpu::identityMatrix4d());
   }
-  EXPECT_EQ(all.back().state, ConvergenceState::NoCorrespondences);
-  EXPECT_FALSE(all.back().converged);
-  EXPECT_EQ(all.back().iterations, 0);
-  EXPECT_EQ(all.back().transformation, dw::gpu::identityMatrix4d());
 }
 
 TEST_F(GpuIcp, PclLoopSemantics) {
@@ -223,6 +229,12 @@ TEST_F(GpuIcp, BadInputThrows) {
   bad[3] = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(icp.alignAll({bad, bad}), dw::Error);
   IcpParameters p;
+  p.move_source_in_float = true;  // the sources were added centred: align refuses until re-added
+  icp.setParameters(p);
+  EXPECT_THROW(icp.alignAll(), dw::Error);
+  icp.clearSources();
+  icp.addSource(dw::PointView::fromDouble(s.data(), 100));
+  EXPECT_NO_THROW(icp.align());
   p.max_correspondence_distance = -1.0;
   EXPECT_THROW(icp.setParameters(p), dw::Error);
   EXPECT_THROW(IterativeClosestPoint(nullptr), dw::Error);

@@ -5,6 +5,8 @@
 # dw::Localizer: poses within 1e-5, per-frame statuses, warm starts) and the rest of test_gpu, then
 # the small localization benchmark (CPU and GPU per-frame latency on the same scans). Writes ONE
 # summary, $OUT/localize_gpu.txt; build logs stay in /tmp/dw-localize-gpu-logs. A few minutes.
+# With DW_STREET="MAP_POINTS SCAN_POINTS [FRAMES]" it adds the benchmark on the generated street
+# (bench_gpu_localize --street; a 10M-point map takes about a minute to build and cut).
 #   usage: tools/device/localize_gpu.sh [FRAMES=40]
 set -uo pipefail
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
@@ -46,5 +48,13 @@ r=0
   >> "$SUMMARY" || r=$?
 echo "-- bench exit $r" >> "$SUMMARY"
 [ $r = 0 ] || rc=$r
+if [ -n "${DW_STREET:-}" ]; then
+  r=0
+  # shellcheck disable=SC2086  # MAP_POINTS SCAN_POINTS [FRAMES] as separate arguments
+  { echo "-- bench_gpu_localize --street $DW_STREET"; timeout 300 "$BUILD/gpu/bench_gpu_localize" --street $DW_STREET 2>&1; } \
+    >> "$SUMMARY" || r=$?
+  echo "-- street bench exit $r" >> "$SUMMARY"
+  [ $r = 0 ] || rc=$r
+fi
 cat "$SUMMARY"
 exit $rc

@@ -1,6 +1,10 @@
 #include "pcl_delaunay_walk/core/registration/frame_track.h"
 
 #include <Eigen/LU>
+#include <chrono>
+#include <cmath>
+
+#include "pcl_delaunay_walk/core/registration/voxel_downsample.h"
 
 namespace dw {
 
@@ -41,6 +45,34 @@ void FrameTrack::finish(FrameResult& r, FrameStatus status, const Eigen::Matrix4
     r.pose = guess;  // the track coasts on the prediction
   }
   pose_ = r.pose;
+}
+
+FrameResult FrameTrack::registerFrame(const PointView& scan, const FrameRules& rules, const FrameIcp& icp) {
+  const auto t0 = std::chrono::steady_clock::now();
+  FrameResult r;
+  const Eigen::Matrix4d guess = predictedPose(rules.constant_velocity);
+  r.pose = guess;
+  auto end = [&](FrameStatus status) {
+    finish(r, status, guess);
+    r.latency_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return r;
+  };
+  if (scan.size == 0) return end(FrameStatus::EmptyScan);
+  const std::vector<float> pts = voxelDownsample(scan, rules.voxel);
+  r.points = pts.size() / 3;
+  if (r.points == 0) return end(FrameStatus::NoFinitePoints);
+  if (!guess.allFinite()) {
+    r.convergence = IcpConvergence::NoCorrespondences;
+    return end(FrameStatus::NoCorrespondences);
+  }
+  const IcpResult result = icp(pts, guess);
+  r.iterations = result.iterations;
+  r.convergence = result.convergence;
+  r.search_seconds = result.search_seconds;
+  r.fitness = double(result.correspondences) / double(r.points);
+  r.rmse = std::sqrt(result.mse);
+  if (result.convergence != IcpConvergence::NoCorrespondences) r.pose = result.transform;
+  return end(registeredStatus(r.convergence, r.fitness, r.rmse, r.pose, rules.min_fitness, rules.max_rmse));
 }
 
 }  // namespace dw

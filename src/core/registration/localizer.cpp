@@ -1,12 +1,10 @@
 #include "pcl_delaunay_walk/core/registration/localizer.h"
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 
 #include "pcl_delaunay_walk/core/graph/graph_io.h"
 #include "pcl_delaunay_walk/core/registration/map_normals.h"
-#include "pcl_delaunay_walk/core/registration/voxel_downsample.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
 
 namespace dw {
@@ -98,30 +96,12 @@ const std::vector<float>& Localizer::mapNormals() {
 }
 
 FrameResult Localizer::registerScan(const PointView& scan) {
-  const auto t0 = std::chrono::steady_clock::now();
-  FrameResult r;
-  const Eigen::Matrix4d guess = predictedPose();
-  r.pose = guess;
-  auto finish = [&](FrameStatus status) {
-    track_.finish(r, status, guess);
-    r.latency_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return r;
-  };
-  if (scan.size == 0) return finish(FrameStatus::EmptyScan);
-  const std::vector<float> pts = voxelDownsample(scan, options_.voxel);
-  r.points = pts.size() / 3;
-  if (r.points == 0) return finish(FrameStatus::NoFinitePoints);
-  if (!options_.warm_start_across_frames) workspace_.hints.assign(workspace_.hints.size(), kInvalidIndex);
-  const float* normals = options_.icp.metric == IcpMetric::PointToPlane ? mapNormals().data() : nullptr;
-  const IcpResult icp = alignIcp(*search_, normals, pts.data(), r.points, guess, options_.icp, workspace_);
-  r.iterations = icp.iterations;
-  r.convergence = icp.convergence;
-  r.search_seconds = icp.search_seconds;
-  r.fitness = double(icp.correspondences) / double(r.points);
-  r.rmse = std::sqrt(icp.mse);
-  if (icp.convergence != IcpConvergence::NoCorrespondences) r.pose = icp.transform;
-  return finish(FrameTrack::registeredStatus(icp.convergence, r.fitness, r.rmse, r.pose, options_.min_fitness,
-                                             options_.max_rmse));
+  const FrameRules rules{options_.voxel, options_.constant_velocity, options_.min_fitness, options_.max_rmse};
+  return track_.registerFrame(scan, rules, [&](const std::vector<float>& pts, const Eigen::Matrix4d& guess) {
+    if (!options_.warm_start_across_frames) workspace_.hints.assign(workspace_.hints.size(), kInvalidIndex);
+    const float* normals = options_.icp.metric == IcpMetric::PointToPlane ? mapNormals().data() : nullptr;
+    return alignIcp(*search_, normals, pts.data(), pts.size() / 3, guess, options_.icp, workspace_);
+  });
 }
 
 }  // namespace dw

@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <limits>
 
 #include "pcl_delaunay_walk/core/graph/graph_io.h"
 #include "pcl_delaunay_walk/core/registration/kitti_poses.h"
@@ -159,6 +160,59 @@ TEST(Localizer, CorruptOrOtherVersionMapFilesAreRefused) {
   EXPECT_THROW(dw::Localizer::load(tempPath("missing.graph")), dw::Error);
 }
 
+// The frame bracket both localizers run: what reaches the ICP call, what never does, and how its
+// result becomes the frame's fields, status and the next prediction.
+TEST(FrameTrack, RegisterFrameCallsTheIcpOnlyForARegistrableScan) {
+  dw::FrameTrack track;
+  dw::FrameRules rules;
+  rules.min_fitness = 0.5;
+  int calls = 0;
+  Eigen::Matrix4d step = Eigen::Matrix4d::Identity();
+  step(0, 3) = 0.25;
+  dw::IcpResult answer;
+  answer.iterations = 7;
+  answer.convergence = dw::IcpConvergence::Transform;
+  answer.correspondences = 2;
+  answer.mse = 0.04;
+  const dw::FrameIcp icp = [&](const std::vector<float>& pts, const Eigen::Matrix4d& guess) {
+    ++calls;
+    EXPECT_EQ(pts.size(), 9u);  // the NaN point is gone
+    dw::IcpResult r = answer;
+    r.transform = guess * step;
+    return r;
+  };
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const std::vector<float> scan = {0, 0, 0, 1, 0, 0, nan, 0, 0, 0, 1, 0};
+  const std::vector<float> all_nan = {nan, 0, 0, 0, nan, 0};
+  EXPECT_EQ(track.registerFrame(dw::PointView::fromFloat(scan.data(), 0), rules, icp).status,
+            dw::FrameStatus::EmptyScan);
+  EXPECT_EQ(track.registerFrame(dw::PointView::fromFloat(all_nan.data(), 2), rules, icp).status,
+            dw::FrameStatus::NoFinitePoints);
+  EXPECT_EQ(calls, 0);
+  dw::FrameResult r = track.registerFrame(dw::PointView::fromFloat(scan.data(), 4), rules, icp);
+  EXPECT_EQ(calls, 1);
+  EXPECT_EQ(r.status, dw::FrameStatus::Ok);  // fitness 2/3 >= 0.5
+  EXPECT_EQ(r.points, 3u);
+  EXPECT_EQ(r.iterations, 7);
+  EXPECT_EQ(r.convergence, dw::IcpConvergence::Transform);
+  EXPECT_DOUBLE_EQ(r.fitness, 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ(r.rmse, 0.2);
+  EXPECT_TRUE(r.pose.isApprox(step, 0.0));
+  EXPECT_TRUE(track.predictedPose(true).isApprox(step * step, 0.0));  // constant velocity
+  answer.correspondences = 1;  // fitness 1/3: lost, the track coasts on the prediction
+  r = track.registerFrame(dw::PointView::fromFloat(scan.data(), 4), rules, icp);
+  EXPECT_EQ(r.status, dw::FrameStatus::LostTrack);
+  EXPECT_TRUE(r.pose.isApprox(step * step, 0.0));
+  Eigen::Matrix4d bad = Eigen::Matrix4d::Identity();
+  bad(1, 3) = std::numeric_limits<double>::quiet_NaN();
+  track.setPose(bad);  // a guess no ICP can start from: no call, no correspondences
+  r = track.registerFrame(dw::PointView::fromFloat(scan.data(), 4), rules, icp);
+  EXPECT_EQ(calls, 2);
+  EXPECT_EQ(r.status, dw::FrameStatus::NoCorrespondences);
+  EXPECT_EQ(r.convergence, dw::IcpConvergence::NoCorrespondences);
+  EXPECT_GT(r.latency_seconds, 0.0);
+}
+
 TEST(VoxelDownsample, OneCentroidPerOccupiedVoxelInKeyOrder) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const std::vector<float> pts = {0.1f, 0.1f, 0.1f, 0.3f, 0.3f,  0.3f, 1.5f, 0.2f,
@@ -174,6 +228,18 @@ TEST(VoxelDownsample, OneCentroidPerOccupiedVoxelInKeyOrder) {
   const std::vector<float> kept = dw::voxelDownsample(dw::PointView::fromFloat(stray.data(), 2), 1e-12);
   ASSERT_EQ(kept.size(), 3u);
   EXPECT_FLOAT_EQ(kept[0], 0.5f);
+}
+
+TEST(VoxelDownsample, FullResolutionKeepsTheFinitePointsOfAnyView) {
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  // x, y, z, intensity: a strided float view, as PCL's PointXYZI lays it out.
+  const std::vector<float> xyzi = {1.25f, -2.5f, 3.0f, 9, nan, 0, 0, 9, 0, inf, 0, 9, -0.125f, 7.5f, 1e-30f, 9};
+  const std::vector<float> want = {1.25f, -2.5f, 3.0f, -0.125f, 7.5f, 1e-30f};
+  EXPECT_EQ(dw::voxelDownsample(dw::PointView::fromFloat(xyzi.data(), 4, 4 * sizeof(float)), 0), want);
+  std::vector<double> xyz;
+  for (std::size_t i = 0; i < 4; ++i)
+    for (int c = 0; c < 3; ++c) xyz.push_back(double(xyzi[4 * i + std::size_t(c)]));
+  EXPECT_EQ(dw::voxelDownsample(dw::PointView::fromDouble(xyz.data(), 4), 0), want);
 }
 
 TEST(KittiPoses, RoundTripAndErrorsNameTheLine) {

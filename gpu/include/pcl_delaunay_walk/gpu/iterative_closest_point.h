@@ -68,6 +68,14 @@ struct IcpParameters {
   /// test would also wait for the rotation. false: in double (IterativeClosestPoint<..., double>).
   /// parametersFrom() (pcl_adapters.h) sets it from the PCL object's Scalar.
   bool float_transform_criteria = true;
+  /// Keep the moved source in float and move it by each step, as dw::alignIcp and PCL's loop do
+  /// (transformPointCloud of the float source every iteration): each point is x' = T x rounded to float
+  /// with T the world-frame step in double, in their operation order, and the correspondences and sums
+  /// read those floats. Both loops then round the same way, reach the same float fixed points and stop
+  /// at the same iterations. false: the source stays centred and unmoved, every iteration applies the
+  /// composite estimate (composed in double) to it. The sources keep the mode they were added under:
+  /// change it before addSource / setInputSource (align throws otherwise).
+  bool move_source_in_float = false;
 };
 
 /// Outcome of one registration.
@@ -124,6 +132,7 @@ class IterativeClosestPoint {
     std::size_t begin = 0, size = 0;  ///< range in the concatenated device source array
     std::size_t input_begin = 0;      ///< caller index of its first point, over all sources
     double centroid[3] = {0, 0, 0};   ///< device points are stored relative to it (float precision)
+    bool moved = false;               ///< added under move_source_in_float (centroid 0)
   };
   void uploadLayout();
   /// Queues the iterations (walk, accumulate, solve) until every source is done or max_iterations.
@@ -147,6 +156,7 @@ class IterativeClosestPoint {
   PinnedBuffer<std::uint32_t> stage_indices_;  ///< upload staging of the index arrays
 
   DeviceBuffer<float4> points_;
+  DeviceBuffer<float4> moved_;  ///< move_source_in_float: the source moved so far (world frame)
   DeviceBuffer<std::uint32_t> hints_;         ///< per point: last nearest vertex (PNN start)
   DeviceBuffer<float> corr_d2_;               ///< per point: accepted squared distance, or -1
   DeviceBuffer<std::uint32_t> point_source_;  ///< per point: its source

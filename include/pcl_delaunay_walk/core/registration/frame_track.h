@@ -2,12 +2,17 @@
 /// \brief What a localizer keeps between frames and decides per frame, whatever runs its ICP (the
 /// CPU dw::Localizer, the GPU dw::gpu::Localizer): the pose, the constant-velocity prediction of the
 /// next one, and the per-frame status (empty or all-NaN scan, no correspondences, lost track). Both
-/// localizers end every frame through FrameTrack::finish, so they predict and coast by one rule.
+/// localizers run every frame through FrameTrack::registerFrame, so they downsample, predict, judge and
+/// coast by one rule and differ only in the ICP call they pass in.
 #pragma once
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <functional>
+#include <limits>
+#include <vector>
 
+#include "pcl_delaunay_walk/core/graph/point_view.h"
 #include "pcl_delaunay_walk/core/registration/icp.h"
 
 namespace dw {
@@ -38,9 +43,27 @@ struct FrameResult {
   double search_seconds = 0;   ///< of which in the correspondence search (0 where the ICP runs on a GPU)
 };
 
+/// The localizer options the frame bracket reads (both localizers fill it from dw::LocalizerOptions).
+struct FrameRules {
+  double voxel = 0.0;  ///< scan downsampling leaf in metres (0: full resolution, NaN/Inf dropped)
+  bool constant_velocity = true;
+  double min_fitness = 0.3;
+  double max_rmse = std::numeric_limits<double>::infinity();
+};
+
+/// The ICP of one frame: registers `scan` (finite float xyz, 3 per point) from `guess` (finite).
+using FrameIcp = std::function<IcpResult(const std::vector<float>& scan, const Eigen::Matrix4d& guess)>;
+
 /// The pose of a tracked sensor and its last frame-to-frame motion.
 class FrameTrack {
  public:
+  /// One frame, whatever runs its ICP: the prediction as the guess; EmptyScan without points;
+  /// the voxel filter (which drops NaN/Inf); NoFinitePoints when nothing is left; NoCorrespondences
+  /// without calling `icp` when the guess is not finite (a caller's setPose: every moved point would
+  /// be NaN); else `icp`, its result fields and registeredStatus; then finish. latency_seconds is the
+  /// wall time of the whole call. Never throws for scan content; what `icp` throws passes through.
+  FrameResult registerFrame(const PointView& scan, const FrameRules& rules, const FrameIcp& icp);
+
   /// Sets the current pose (sensor -> map) and forgets the motion.
   void setPose(const Eigen::Matrix4d& pose);
   const Eigen::Matrix4d& pose() const { return pose_; }
