@@ -1,5 +1,5 @@
 # dw_dem --tin writes the TIN of the whole cloud (several tiles) beside the raster; with --stream in
-# at least MIN_STRIPS strips, the same triangles (ply_same_triangles: canonical sets of vertex
+# at least MIN_STRIPS strips, the same triangles (test_ply_same_triangles: canonical sets of vertex
 # coordinates) as in memory.
 separate_arguments(args UNIX_COMMAND "${ARGS}")
 separate_arguments(inputs UNIX_COMMAND "${IN}")
@@ -13,8 +13,8 @@ endif()
 if(NOT log MATCHES "strips ([0-9]+)" OR CMAKE_MATCH_1 LESS ${MIN_STRIPS})
   message(FATAL_ERROR "fewer than ${MIN_STRIPS} strips: ${log}")
 endif()
-execute_process(COMMAND ${SAME} ${OUT}_mem.ply ${OUT}_str.ply RESULT_VARIABLE rc OUTPUT_VARIABLE same)
+execute_process(COMMAND ${SAME} ${OUT}_mem.ply ${OUT}_str.ply RESULT_VARIABLE rc OUTPUT_VARIABLE same ERROR_VARIABLE same_err)
 if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "the streamed TIN differs from the in-memory TIN: ${same}")
+  message(FATAL_ERROR "the streamed TIN differs from the in-memory TIN (exit ${rc}): ${same}${same_err}")
 endif()
 message(STATUS "${same}${log}")

@@ -1,5 +1,5 @@
 # dw_tin --stream writes the in-memory dw_tin's triangles (as canonical sets of vertex coordinates,
-# ply_same_triangles) in at least MIN_STRIPS strips, every face index addressing a vertex.
+# test_ply_same_triangles) in at least MIN_STRIPS strips, every face index addressing a vertex.
 separate_arguments(args UNIX_COMMAND "${ARGS}")
 execute_process(COMMAND ${TIN} ${IN} -o ${OUT}_mem.ply ${args} --quiet RESULT_VARIABLE a OUTPUT_QUIET)
 execute_process(COMMAND ${TIN} ${IN} -o ${OUT}_str.ply ${args} --stream --memory-limit ${MB} --quiet
@@ -13,8 +13,8 @@ endif()
 if(CMAKE_MATCH_1 LESS ${MIN_STRIPS})
   message(FATAL_ERROR "only ${CMAKE_MATCH_1} strips: ${log}")
 endif()
-execute_process(COMMAND ${SAME} ${OUT}_mem.ply ${OUT}_str.ply RESULT_VARIABLE rc OUTPUT_VARIABLE same)
+execute_process(COMMAND ${SAME} ${OUT}_mem.ply ${OUT}_str.ply RESULT_VARIABLE rc OUTPUT_VARIABLE same ERROR_VARIABLE same_err)
 if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "the streamed PLY differs from the in-memory PLY: ${same}")
+  message(FATAL_ERROR "the streamed PLY differs from the in-memory PLY (exit ${rc}): ${same}${same_err}")
 endif()
 message(STATUS "${same}${log}")
