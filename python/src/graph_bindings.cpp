@@ -78,14 +78,18 @@ vertex). Vertices are stored in a local float frame relative to `origin`.)doc");
       py::arg("path"), "Write the graph file (versioned, checksummed).");
   c.def_static(
       "load",
-      [](const std::string& path) {
+      [](const std::string& path, bool mapped) {
         py::gil_scoped_release release;
-        return std::make_shared<dw::DelaunayGraph>(dw::loadGraph(path));
+        return std::make_shared<dw::DelaunayGraph>(
+            dw::loadGraph(path, mapped ? dw::GraphStorage::Mapped : dw::GraphStorage::Copied));
       },
-      py::arg("path"),
-      "Read a graph file: parsed from a read-only memory map of the file and copied once into the graph's "
-      "arrays, checksum verified and structure validated; a corrupt, truncated or foreign file raises "
-      "GraphFileError.");
+      py::arg("path"), py::arg("mapped") = true,
+      "Read a graph file, checksum verified and structure validated; a corrupt, truncated or foreign file "
+      "raises GraphFileError. With mapped=True the edge records (most of the file) stay in a private "
+      "memory map of the file that the graph keeps (is_mapped), not copied: the path may be removed or "
+      "replaced afterwards, but the file must not be rewritten in place. mapped=False copies them.");
+  c.def_property_readonly("is_mapped", &dw::DelaunayGraph::isMapped,
+                          "True when the edge records are a view of the loaded file's memory map.");
   c.def("validate", &dw::DelaunayGraph::validate, py::call_guard<py::gil_scoped_release>(),
         "Check every invariant; raises Error naming the first broken one.");
   c.def_property_readonly("num_vertices", &dw::DelaunayGraph::numVertices, "Distinct finite points.");

@@ -1,5 +1,7 @@
 """DelaunayGraph: statistics, save/load round trip, and corrupt files raising GraphFileError."""
 
+import os
+
 import numpy as np
 import pytest
 
@@ -93,3 +95,53 @@ def test_failed_save_keeps_the_existing_file(tmp_path):
     assert str(path) in message.decode() and "File too large" in message.decode()
     assert path.read_bytes() == old
     assert sorted(p.name for p in tmp_path.iterdir()) == ["existing.graph"]
+
+
+def _rss_anon_kb():
+    """Anonymous resident memory of this process (Linux), or None where /proc does not say."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("RssAnon:"):
+                    return int(line.split()[1])
+    except OSError:
+        pass
+    return None
+
+
+def test_load_maps_the_file_instead_of_copying(tmp_path):
+    # 150k uniform points: ~46 MB of edge records, above glibc's largest mmap threshold (32 MB), so a
+    # copy takes fresh anonymous pages and shows in RssAnon; a mapped file's pages are RssFile.
+    pts = np.random.default_rng(5).random((150_000, 3), dtype=np.float32)
+    g = dw.DelaunayGraph(pts)
+    path = str(tmp_path / "uniform.graph")
+    g.save(path)
+    edge_kb = g.num_directed_edges * 20 / 1024
+    assert not g.is_mapped
+
+    before = _rss_anon_kb()
+    mapped = dw.DelaunayGraph.load(path)
+    grown_mapped = None if before is None else _rss_anon_kb() - before
+    assert mapped.is_mapped
+    before = _rss_anon_kb()
+    copied = dw.DelaunayGraph.load(path, mapped=False)
+    grown_copied = None if before is None else _rss_anon_kb() - before
+    assert not copied.is_mapped
+    if grown_mapped is not None:
+        assert grown_copied > 0.75 * edge_kb, (grown_copied, edge_kb)  # the measurement sees a copy
+        assert grown_mapped < 0.25 * edge_kb, (grown_mapped, edge_kb)
+
+    q = pts[::50] + np.float32(0.001)
+    expected = dw.NeighbourSearch(g).knn(q, 4)
+    for h in (mapped, copied):
+        for a, b in zip(expected, dw.NeighbourSearch(h).knn(q, 4)):
+            np.testing.assert_array_equal(a, b)
+
+    # The mapping outlives the path, and the mapped graph saves again (over its own path).
+    os.remove(path)
+    for a, b in zip(expected, dw.NeighbourSearch(mapped).knn(q, 4)):
+        np.testing.assert_array_equal(a, b)
+    mapped.save(path)
+    again = dw.DelaunayGraph.load(path)
+    assert again.is_mapped and again.num_edges == g.num_edges
+    np.testing.assert_array_equal(again.points, g.points)

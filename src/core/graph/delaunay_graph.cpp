@@ -33,15 +33,18 @@ void DelaunayGraph::validate() const {
     if (!std::isfinite(points[v].x) || !std::isfinite(points[v].y) || !std::isfinite(points[v].z))
       broken("non-finite vertex " + std::to_string(v));
   }
-  for (const EdgeRecord& e : edges) {
-    if (e.j >= n) broken("edge neighbour out of range");
-    if (!(e.m >= 0.f) || !std::isfinite(e.ex) || !std::isfinite(e.ey) || !std::isfinite(e.ez))
-      broken("non-finite edge record");
-  }
-  for (std::size_t v = 0; v < n; ++v)
-    for (index_t e = offsets[v]; e + 1 < offsets[v + 1]; ++e)
-      if (!(edges[e].m <= edges[e + 1].m))  // the walk's early stop relies on this order
+  // One pass over the records (a loaded file's largest array), vertex by vertex: the offsets checked
+  // above cover [0, edges.size()) exactly, so every record is seen once.
+  for (std::size_t v = 0; v < n; ++v) {
+    for (index_t k = offsets[v]; k < offsets[v + 1]; ++k) {
+      const EdgeRecord& e = edges[k];
+      if (e.j >= n) broken("edge neighbour out of range");
+      if (!(e.m >= 0.f) || !std::isfinite(e.ex) || !std::isfinite(e.ey) || !std::isfinite(e.ez))
+        broken("non-finite edge record");
+      if (k > offsets[v] && !(edges[k - 1].m <= e.m))  // the walk's early stop relies on this order
         broken("edges of vertex " + std::to_string(v) + " not sorted by length");
+    }
+  }
   if (!safe_radius2.empty()) {
     if (safe_radius2.size() != n) broken("safe radii size");
     for (std::size_t v = 0; v < n; ++v) {

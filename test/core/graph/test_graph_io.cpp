@@ -3,7 +3,10 @@
 
 #include <cstdio>
 #include <cstring>
+#include <cstddef>
 #include <fstream>
+#include <memory>
+#include <random>
 
 #include "core/brute_force.h"
 #include "pcl_delaunay_walk/core/graph/graph_io.h"
@@ -116,4 +119,147 @@ TEST(GraphIo, HugeClaimedSizesDoNotAllocate) {
   std::uint64_t big = 1ull << 31;
   std::memcpy(bytes.data() + 24, &big, 8);  // num_vertices
   EXPECT_THROW(deserializeGraph(bytes.data(), bytes.size()), GraphFileError);
+}
+
+namespace {
+
+std::string mappedTestPath(const std::string& name) {
+  return std::string(DW_BINARY_DIR) + "/test_graph_io_mapped_" + name + ".graph";
+}
+
+/// Nearest vertex, distance and step count of every query, plus the 8 nearest inputs of each: a
+/// walk over a mapped graph must follow the same records as over the built one.
+struct Answers {
+  std::vector<WalkResult> nearest;
+  std::vector<index_t> knn;
+  std::vector<float> knn_d2;
+};
+
+Answers answers(const DelaunayGraph::ConstPtr& g, const std::vector<Vec3f>& queries) {
+  const NeighbourSearch s(g);
+  Answers a;
+  std::vector<index_t> idx;
+  std::vector<float> d2;
+  for (const Vec3f& q : queries) {
+    a.nearest.push_back(s.nearest(q, StartStrategy::KdAnn));
+    s.knn(q, 8, a.nearest.back(), idx, d2);
+    a.knn.insert(a.knn.end(), idx.begin(), idx.end());
+    a.knn_d2.insert(a.knn_d2.end(), d2.begin(), d2.end());
+  }
+  return a;
+}
+
+void expectSameAnswers(const Answers& a, const Answers& b) {
+  ASSERT_EQ(a.nearest.size(), b.nearest.size());
+  for (std::size_t i = 0; i < a.nearest.size(); ++i) {
+    EXPECT_EQ(a.nearest[i].vertex, b.nearest[i].vertex) << "query " << i;
+    EXPECT_EQ(a.nearest[i].dist2, b.nearest[i].dist2) << "query " << i;
+    EXPECT_EQ(a.nearest[i].steps, b.nearest[i].steps) << "query " << i;
+  }
+  EXPECT_EQ(a.knn, b.knn);
+  EXPECT_EQ(a.knn_d2, b.knn_d2);
+}
+
+std::vector<Vec3f> queriesIn(const DelaunayGraph& g, std::size_t n) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-0.1f, 1.1f);
+  std::vector<Vec3f> q(n);
+  for (auto& p : q) p = g.toLocal(u(rng), u(rng), u(rng));
+  return q;
+}
+
+}  // namespace
+
+TEST(GraphIoMapped, MappedLoadViewsTheFileAndAnswersLikeTheBuiltGraph) {
+  const auto built = std::make_shared<const DelaunayGraph>(smallGraph(3000));
+  const std::string path = mappedTestPath("answers");
+  saveGraph(*built, path);
+  const auto mapped = std::make_shared<const DelaunayGraph>(loadGraph(path));
+  ASSERT_TRUE(mapped->isMapped());
+  EXPECT_FALSE(built->isMapped());
+  expectEqual(*built, *mapped);
+  const auto queries = queriesIn(*built, 500);
+  expectSameAnswers(answers(built, queries), answers(mapped, queries));
+
+  const DelaunayGraph copied = loadGraph(path, GraphStorage::Copied);
+  EXPECT_FALSE(copied.isMapped());
+  expectEqual(*built, copied);
+  const DelaunayGraph copy_of_mapped = *mapped;  // a copy owns its records
+  EXPECT_FALSE(copy_of_mapped.isMapped());
+  expectEqual(*built, copy_of_mapped);
+  std::remove(path.c_str());
+}
+
+TEST(GraphIoMapped, MappedGraphOutlivesItsPathAndSavesAgain) {
+  const auto built = std::make_shared<const DelaunayGraph>(smallGraph(2000));
+  const auto queries = queriesIn(*built, 300);
+  const Answers expected = answers(built, queries);
+  const std::string path = mappedTestPath("outlives"), renamed = mappedTestPath("outlives_renamed");
+  saveGraph(*built, path);
+  auto removed = std::make_shared<const DelaunayGraph>(loadGraph(path));
+  ASSERT_EQ(0, std::rename(path.c_str(), renamed.c_str()));
+  auto moved = std::make_shared<const DelaunayGraph>(loadGraph(renamed));
+  ASSERT_EQ(0, std::remove(renamed.c_str()));
+  ASSERT_TRUE(removed->isMapped() && moved->isMapped());
+  expectSameAnswers(expected, answers(removed, queries));
+  expectSameAnswers(expected, answers(moved, queries));
+
+  // Saved again, over the path a mapping was made from: the mapping keeps the old file.
+  saveGraph(*moved, path);
+  const auto again = std::make_shared<const DelaunayGraph>(loadGraph(path));
+  saveGraph(*again, path);
+  expectEqual(*built, *again);
+  expectEqual(*built, *moved);
+  expectSameAnswers(expected, answers(again, queries));
+  std::remove(path.c_str());
+}
+
+TEST(GraphIoMapped, EditsStayInTheProcessAndResizingCopies) {
+  const DelaunayGraph built = smallGraph(400);
+  const std::string path = mappedTestPath("edits");
+  saveGraph(built, path);
+  DelaunayGraph g = loadGraph(path);
+  ASSERT_TRUE(g.isMapped());
+  g.edges[0].m += 1.f;  // copy-on-write: this page becomes the process's own
+  EXPECT_TRUE(g.isMapped());
+  expectEqual(built, loadGraph(path));  // the file did not change
+  g.edges.resize(g.edges.size() + 1);
+  EXPECT_FALSE(g.isMapped());
+  EXPECT_EQ(g.edges[0].m, built.edges[0].m + 1.f);
+  EXPECT_EQ(0, std::memcmp(g.edges.data() + 1, built.edges.data() + 1,
+                           (built.edges.size() - 1) * sizeof(EdgeRecord)));
+  std::remove(path.c_str());
+}
+
+/// A checksummed file whose structure lies is refused on the mapped path as on the copying one, with
+/// the file named: the walk never follows an index past the arrays.
+TEST(GraphIoMapped, LyingFilesAreRefusedWithThePath) {
+  const DelaunayGraph built = smallGraph(300);
+  const auto good = serializeGraph(built);
+  const std::size_t n = built.numVertices(), header = 104;
+  const std::size_t offsets_at = header + n * sizeof(Vec3f), edges_at = offsets_at + (n + 1) * sizeof(index_t);
+  struct Lie {
+    const char* what;
+    std::size_t at;
+    index_t value;
+  };
+  const Lie lies[] = {{"neighbour index = n", edges_at + offsetof(EdgeRecord, j), index_t(n)},
+                      {"neighbour index huge", edges_at + 7 * sizeof(EdgeRecord) + offsetof(EdgeRecord, j),
+                       index_t(0xFFFFFFF0u)},
+                      {"offsets not monotone", offsets_at + 5 * sizeof(index_t), index_t(1u << 30)}};
+  const std::string path = mappedTestPath("lies");
+  for (const Lie& lie : lies) {
+    auto f = good;
+    std::memcpy(f.data() + lie.at, &lie.value, sizeof(index_t));
+    resealGraphFile(f);
+    std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(f.data()), f.size());
+    try {
+      loadGraph(path);
+      ADD_FAILURE() << lie.what << ": accepted";
+    } catch (const GraphFileError& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("invalid graph"), std::string::npos) << e.what();
+    }
+  }
+  std::remove(path.c_str());
 }

@@ -116,6 +116,8 @@ TEST(Localizer, SavedMapLoadsAndTracksTheSame) {
   dw::Localizer loaded = dw::Localizer::load(path, sceneOptions());
   EXPECT_EQ(loaded.mapPoints(), built.mapPoints());
   EXPECT_EQ(loaded.graph().numDirectedEdges(), built.graph().numDirectedEdges());
+  EXPECT_TRUE(loaded.graph().isMapped());  // the records are the file's mapping, not a copy
+  ASSERT_EQ(0, std::remove(path.c_str()));  // the mapping outlives the path
   built.setPose(truth[0]);
   loaded.setPose(truth[0]);
   for (std::size_t k = 0; k < truth.size(); ++k) {
@@ -125,7 +127,6 @@ TEST(Localizer, SavedMapLoadsAndTracksTheSame) {
     // The loaded map's points are origin + local rounded to float: equal to ~1e-7 relative.
     EXPECT_LT((a.pose - b.pose).cwiseAbs().maxCoeff(), 1e-5) << "frame " << k;
   }
-  std::remove(path.c_str());
 }
 
 TEST(Localizer, CorruptOrOtherVersionMapFilesAreRefused) {

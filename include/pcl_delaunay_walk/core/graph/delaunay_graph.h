@@ -7,13 +7,10 @@
 #include <memory>
 #include <vector>
 
+#include "pcl_delaunay_walk/core/graph/edge_records.h"
 #include "pcl_delaunay_walk/core/graph/types.h"
-#include "pcl_delaunay_walk/core/util/uninitialised_allocator.h"
 
 namespace dw {
-
-/// The records' container: a std::vector whose resize(n) leaves new records unwritten.
-using EdgeRecords = std::vector<EdgeRecord, UninitialisedAllocator<EdgeRecord>>;
 
 /// The Delaunay graph of a reference cloud, laid out for the walk.
 ///
@@ -38,9 +35,8 @@ struct DelaunayGraph {
   int dimension = 0;
   std::vector<Vec3f> points;
   std::vector<index_t> offsets{0};
-  /// All directed edges, vertex by vertex (offsets). Its allocator leaves resized storage unwritten:
-  /// the assembly writes every record on all threads, and a zero fill before that, on one thread, was
-  /// 0.21 s of a 4M-point build's 0.8 s assembly on 16 device threads.
+  /// All directed edges, vertex by vertex (offsets): owned, or (loadGraph) a view of the mapped file,
+  /// which is most of a graph's bytes (20 per directed edge, against 28 per vertex for the rest).
   EdgeRecords edges;
   std::vector<index_t> input_to_vertex;
   std::vector<index_t> originals_offsets{0};
@@ -55,6 +51,8 @@ struct DelaunayGraph {
   std::size_t numInputPoints() const { return input_to_vertex.size(); }
   std::size_t degree(index_t v) const { return offsets[v + 1] - offsets[v]; }
   index_t representative(index_t v) const { return originals[originals_offsets[v]]; }
+  /// True when the edge records are a view of a mapped graph file (loadGraph) rather than a copy.
+  bool isMapped() const { return edges.isView(); }
 
   /// A caller's point in the graph's local frame (subtract in double, then round once).
   Vec3f toLocal(double x, double y, double z) const {

@@ -1,11 +1,12 @@
 /// \file graph_io.h
-/// \brief Versioned binary graph files. Loading is a bounds-checked copy: sizes are checked against the
-/// file size before any allocation, the payload checksum is verified, and the structure is validated,
-/// so a corrupt, truncated or foreign file gives dw::GraphFileError, never a crash or a wrong graph.
-/// loadGraph parses a read-only memory map of the file, so the payload is copied once (into the
-/// graph's arrays) and no buffer as large as the file is allocated (the mapped pages are page cache).
-/// The graph owns std::vector arrays: a graph that would use the mapping itself as its storage does
-/// not exist yet.
+/// \brief Versioned binary graph files. Loading is bounds-checked: sizes are checked against the file
+/// size before any allocation, the payload checksum is verified, and the structure is validated (one
+/// sequential pass per array: offsets monotone, every neighbour index below the vertex count), so a
+/// corrupt, truncated or foreign file gives dw::GraphFileError, never a crash or a wrong graph.
+/// loadGraph maps the file (private, copy-on-write) and by default the graph's edge records, most of
+/// its bytes, are a view of the mapping, kept alive by the graph; the smaller per-vertex arrays are
+/// copied into std::vector (their type is shared with code that takes std::vector, the GPU walk's
+/// upload among it).
 #pragma once
 
 #include <cstdint>
@@ -26,9 +27,17 @@ void saveGraph(const DelaunayGraph& graph, const std::string& path);
 
 /// Parses bytes / a file. Throws dw::GraphFileError with the reason on any defect.
 DelaunayGraph deserializeGraph(const std::uint8_t* data, std::size_t size);
-/// Throws GraphFileError naming `path`. The file must not be truncated by another process while it
-/// loads (a mapped page past a new end would fault).
-DelaunayGraph loadGraph(const std::string& path);
+/// Where a loaded graph's edge records live.
+enum class GraphStorage {
+  Mapped,  ///< a view of the file's private mapping (DelaunayGraph::isMapped()), no copy
+  Copied,  ///< copied out of the mapping into owned storage; the mapping is released on return
+};
+
+/// Throws GraphFileError naming `path`. With GraphStorage::Mapped the graph keeps the file mapped
+/// while its records are a view: the path may then be removed, renamed or replaced (saveGraph
+/// renames a new file over it), but the file must not be truncated or rewritten in place by another
+/// process (a mapped page past a new end faults; a rewritten page would bypass the checks).
+DelaunayGraph loadGraph(const std::string& path, GraphStorage storage = GraphStorage::Mapped);
 
 /// The file format's checksum (64-bit word-wise multiply-xorshift) over n bytes.
 std::uint64_t graphFileChecksum(const std::uint8_t* data, std::size_t n);
