@@ -103,16 +103,43 @@ void forEachQuery(const Batch& b, PerQuery&& per_query, Skip&& skip) {
   });
 }
 
+inline bool isPackedFloat(const Points& q) {
+  return !q.is_double && q.row_stride == 3 * static_cast<py::ssize_t>(sizeof(float)) &&
+         q.col_stride == static_cast<py::ssize_t>(sizeof(float));
+}
+
 template <typename PerQuery, typename Skip>
 void dispatch(const Batch& b, PerQuery&& per_query, Skip&& skip) {
   const Points& q = b.queries;
   if (q.is_double)
     forEachQuery<double, false>(b, per_query, skip);
-  else if (q.row_stride == 3 * static_cast<py::ssize_t>(sizeof(float)) &&
-           q.col_stride == static_cast<py::ssize_t>(sizeof(float)))
+  else if (isPackedFloat(q))
     forEachQuery<float, true>(b, per_query, skip);
   else
     forEachQuery<float, false>(b, per_query, skip);
+}
+
+/// The batch nearest() of C-contiguous float32 queries without hints (the common NumPy call), as one
+/// loop per worker block: the walk inlined into it (flatten), no per-query call, so the loop body is
+/// the C++ caller's own plus the finiteness test and the `ends` store.
+void nearestPackedWithoutHints(const Batch& b, std::int64_t* idx, float* d2, std::int64_t* end) {
+  const dw::NeighbourSearch& s = b.search;
+  const dw::DelaunayGraph& g = s.graph();
+  const bool empty = g.numVertices() == 0;
+  auto block = [&](std::size_t begin, std::size_t stop, unsigned) __attribute__((flatten)) {
+    for (std::size_t i = begin; i < stop; ++i) {
+      double x, y, z;
+      if (empty || !packedFloatQuery(b.queries, i, x, y, z)) {
+        idx[i] = -1, d2[i] = kInf, end[i] = -1;
+        continue;
+      }
+      const dw::WalkResult r = s.nearest(g.toLocal(x, y, z), b.strategy);
+      idx[i] = g.representative(r.vertex);
+      d2[i] = r.dist2;
+      end[i] = r.vertex;
+    }
+  };
+  dw::parallelFor(b.queries.n, b.workers, block);
 }
 
 py::tuple nearest(const dw::NeighbourSearch& s, py::handle queries, py::handle hints_obj,
@@ -128,6 +155,13 @@ py::tuple nearest(const dw::NeighbourSearch& s, py::handle queries, py::handle h
   std::int64_t* const idx = indices.mutable_data();
   std::int64_t* const end = ends.mutable_data();
   float* const d2 = dist2.mutable_data();
+  if (!have_hints && isPackedFloat(q)) {
+    {
+      py::gil_scoped_release release;
+      nearestPackedWithoutHints(b, idx, d2, end);
+    }
+    return py::make_tuple(indices, dist2, ends);
+  }
   {
     py::gil_scoped_release release;
     const dw::DelaunayGraph& g = s.graph();
