@@ -1,7 +1,7 @@
 """The GPU module (gpu/ in the C++ tree: dw::gpu::DelaunayWalk and dw::gpu::IterativeClosestPoint).
 
     import pcl_delaunay_walk as dw
-    if dw.gpu.available():
+    if dw.gpu.is_available():
         walk = dw.gpu.DelaunayWalk(dw.DelaunayGraph(target))   # the graph on the device
         idx, d2, ends = walk.nearest(queries)                   # exact, as NeighbourSearch.nearest
         result = dw.gpu.icp(source, walk, max_distance=0.05)   # point-to-point ICP on the device
@@ -9,7 +9,9 @@
         print(dw.gpu.why_unavailable())
 
 Where the build has no CUDA module, its library cannot be loaded, or no CUDA device is present, every
-call raises RuntimeError with the reason; `available()` and `why_unavailable()` say so without raising.
+call raises RuntimeError with the reason; `is_available()` and `why_unavailable()` say so without
+raising. Arrays are (n, 3) float32 or float64 (C-contiguous ones are read in place, others converted
+once); every call releases the GIL while the device works.
 """
 
 from ._native import HAVE_GPU
@@ -33,9 +35,12 @@ def why_unavailable() -> str:
     return "pcl_delaunay_walk.gpu: " + why if why else ""
 
 
-def available() -> bool:
+def is_available() -> bool:
     """Whether GPU calls can run here (a CUDA module in this build and a CUDA device)."""
     return why_unavailable() == ""
+
+
+available = is_available  # the name of the first release
 
 
 def _require():

@@ -75,6 +75,7 @@ py::tuple nearest(const GpuWalk& w, py::handle queries, py::handle hints_obj) {
   std::int64_t* end = ends.mutable_data();
   float* d2 = dist2.mutable_data();
   const std::int64_t* h = have_hints ? hints.data() : nullptr;
+  if (q.n == 0) return py::make_tuple(indices, dist2, ends);  // no device transfer for an empty batch
   {
     py::gil_scoped_release release;
     std::vector<float4> local;

@@ -43,13 +43,24 @@ dw::StartStrategy strategyArg(const py::object& name, bool have_hints) {
   return dw::parseStartStrategy(name.cast<std::string>());
 }
 
+/// Query i of a C-contiguous float32 (n, 3) array, whose rows are 12 bytes apart: loads at a
+/// compile-time stride, and one finiteness test on the floats, exact (x - x is 0 for every finite x and
+/// NaN for inf and NaN, and a NaN makes the sum NaN) instead of three on the doubles.
+inline bool packedFloatQuery(const Points& q, std::size_t i, double& x, double& y, double& z) {
+  const float* r = reinterpret_cast<const float*>(q.data) + 3 * i;
+  const float a = r[0], b = r[1], c = r[2];
+  x = a, y = b, z = c;
+  return (a - a) + (b - b) + (c - c) == 0.0f;
+}
+
 /// Calls per_query(i, local_query, hint) for every finite query and skip(i) for the others, on the
-/// batch's workers; T is the queries' dtype. With hints the queries run grouped by start vertex
+/// batch's workers; T is the queries' dtype, kPacked whether they are a C-contiguous float32 (n, 3)
+/// array (packedFloatQuery). With hints the queries run grouped by start vertex
 /// (dw::orderByStartVertex, as the C++ ICP estimator runs them): the graph is stored along a
 /// space-filling curve, so consecutive walks then read neighbouring records instead of a cache miss
 /// each, whatever order the caller's points are in. Answers are written by position, so the order
 /// changes no result; each worker's block is a contiguous range of that order.
-template <typename T, typename PerQuery, typename Skip>
+template <typename T, bool kPacked, typename PerQuery, typename Skip>
 void forEachQuery(const Batch& b, PerQuery&& per_query, Skip&& skip) {
   const dw::DelaunayGraph& g = b.search.graph();
   const Points& q = b.queries;
@@ -69,8 +80,15 @@ void forEachQuery(const Batch& b, PerQuery&& per_query, Skip&& skip) {
       // ICP-like sequences start at their hint, a cache miss on most queries: fetch it early.
       if (kHinted && k + kPrefetchAhead < end)
         b.search.prefetchStart(hintVertex(b.hints[grouped ? order[k + kPrefetchAhead] : k + kPrefetchAhead]));
-      const double x = q.at<T>(i, 0), y = q.at<T>(i, 1), z = q.at<T>(i, 2);
-      if (empty || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
+      double x, y, z;
+      bool finite;
+      if constexpr (kPacked) {
+        finite = packedFloatQuery(q, i, x, y, z);
+      } else {
+        x = q.at<T>(i, 0), y = q.at<T>(i, 1), z = q.at<T>(i, 2);
+        finite = std::isfinite(x) && std::isfinite(y) && std::isfinite(z);
+      }
+      if (empty || !finite) {
         skip(i);
         continue;
       }
@@ -85,12 +103,43 @@ void forEachQuery(const Batch& b, PerQuery&& per_query, Skip&& skip) {
   });
 }
 
+inline bool isPackedFloat(const Points& q) {
+  return !q.is_double && q.row_stride == 3 * static_cast<py::ssize_t>(sizeof(float)) &&
+         q.col_stride == static_cast<py::ssize_t>(sizeof(float));
+}
+
 template <typename PerQuery, typename Skip>
 void dispatch(const Batch& b, PerQuery&& per_query, Skip&& skip) {
-  if (b.queries.is_double)
-    forEachQuery<double>(b, per_query, skip);
+  const Points& q = b.queries;
+  if (q.is_double)
+    forEachQuery<double, false>(b, per_query, skip);
+  else if (isPackedFloat(q))
+    forEachQuery<float, true>(b, per_query, skip);
   else
-    forEachQuery<float>(b, per_query, skip);
+    forEachQuery<float, false>(b, per_query, skip);
+}
+
+/// The batch nearest() of C-contiguous float32 queries without hints (the common NumPy call), as one
+/// loop per worker block: the walk inlined into it (flatten), no per-query call, so the loop body is
+/// the C++ caller's own plus the finiteness test and the `ends` store.
+void nearestPackedWithoutHints(const Batch& b, std::int64_t* idx, float* d2, std::int64_t* end) {
+  const dw::NeighbourSearch& s = b.search;
+  const dw::DelaunayGraph& g = s.graph();
+  const bool empty = g.numVertices() == 0;
+  auto block = [&](std::size_t begin, std::size_t stop, unsigned) __attribute__((flatten)) {
+    for (std::size_t i = begin; i < stop; ++i) {
+      double x, y, z;
+      if (empty || !packedFloatQuery(b.queries, i, x, y, z)) {
+        idx[i] = -1, d2[i] = kInf, end[i] = -1;
+        continue;
+      }
+      const dw::WalkResult r = s.nearest(g.toLocal(x, y, z), b.strategy);
+      idx[i] = g.representative(r.vertex);
+      d2[i] = r.dist2;
+      end[i] = r.vertex;
+    }
+  };
+  dw::parallelFor(b.queries.n, b.workers, block);
 }
 
 py::tuple nearest(const dw::NeighbourSearch& s, py::handle queries, py::handle hints_obj,
@@ -106,6 +155,13 @@ py::tuple nearest(const dw::NeighbourSearch& s, py::handle queries, py::handle h
   std::int64_t* const idx = indices.mutable_data();
   std::int64_t* const end = ends.mutable_data();
   float* const d2 = dist2.mutable_data();
+  if (!have_hints && isPackedFloat(q)) {
+    {
+      py::gil_scoped_release release;
+      nearestPackedWithoutHints(b, idx, d2, end);
+    }
+    return py::make_tuple(indices, dist2, ends);
+  }
   {
     py::gil_scoped_release release;
     const dw::DelaunayGraph& g = s.graph();

@@ -173,6 +173,31 @@ def test_non_finite_queries_and_points():
     assert idx.tolist() == [1, -1] and np.isinf(d2[1]) and ends[1] == -1
 
 
+def test_packed_float32_queries_equal_the_strided_read(rng):
+    """C-contiguous float32 queries take the packed read (one finiteness test on the floats); it must
+    skip exactly the rows any coordinate of which is NaN or +-inf, and keep huge finite ones."""
+    p = rng.random((3000, 3)).astype(np.float32)
+    s = dw.NeighbourSearch(dw.DelaunayGraph(p))
+    q = rng.random((400, 3)).astype(np.float32)
+    bad = [np.nan, np.inf, -np.inf]
+    for k in range(9):
+        q[10 + k, k % 3] = bad[k // 3]
+    q[30] = [3e38, -3e38, 3e38]  # finite: x - x is 0, though x + x overflows
+    q[31] = np.float32(1e-45)  # subnormal
+    assert q.flags.c_contiguous
+    got = s.nearest(q)
+    strided = s.nearest(np.hstack([q, q])[:, :3])
+    wide = s.nearest(q.astype(np.float64))
+    for ref in (strided, wide):
+        for a, b in zip(got, ref):
+            np.testing.assert_array_equal(a, b)
+    assert (got[0][10:19] == -1).all() and np.isinf(got[1][10:19]).all()
+    assert got[0][30] >= 0 and got[0][31] >= 0
+    hinted = s.nearest(q, hints=got[2])
+    np.testing.assert_array_equal(hinted[1], got[1])
+    np.testing.assert_array_equal(hinted[2][10:19], got[2][10:19])  # skipped rows keep their hint
+
+
 def test_empty_graph_and_empty_batch():
     s = dw.NeighbourSearch(dw.DelaunayGraph(np.zeros((0, 3))))
     idx, d2, _ = s.nearest(np.ones((2, 3)))

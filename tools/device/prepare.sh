@@ -2,7 +2,8 @@
 # Run HERE (the development machine), once per checkout, before using the device machine: fills the
 # git-ignored folder .deps/ with what the device lacks: Qhull (headers, the reentrant library and a
 # minimal CMake package), nanoflann's header, the real clouds the GPU tests and benchmarks read, and
-# the benchmark-only peers' headers (nanoflann 1.12, pico_tree, small_gicp) for tools/device/peers.sh.
+# the benchmark-only peers' headers (nanoflann 1.12, pico_tree, small_gicp) for tools/device/peers.sh,
+# and pybind11 and pytest for tools/device/python_gpu.sh.
 # The device call then names .deps in `carry` and runs tools/device/run.sh.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
@@ -57,5 +58,31 @@ if [ "${DW_DEVICE_NODE:-0}" = 1 ]; then
   [ -f "$DEPS/node/node.xz" ] || xz -T0 -6 -c "$(readlink -f "$(command -v node)")" > "$DEPS/node/node.xz"
   cp "$DATA/airborne/las_with_several_extra_byte_bloc.laz" "$DEPS/data/airborne/"
   [ -d "$DEPS/lazperf/node_modules/laz-perf" ] || echo "prepare.sh: no laz-perf in .deps/lazperf (scripts/setup.sh installs it)"
+fi
+# The Python package's device run (tools/device/python_gpu.sh): pybind11 and pytest, both taken from
+# Debian 13 (trixie) through apt with a private source list and state, so the machine's own apt setup
+# is untouched. Debian 12's pybind11 2.10 cannot serve the device's NumPy 2: it reads a dtype's
+# element size at NumPy 1's PyArray_Descr offset (NumPy 2 moved it and widened it to npy_intp), so
+# every array it allocates gets wrong strides; pybind11 >= 2.12 reads either layout. The pytest set
+# (pytest, pluggy, iniconfig, packaging) is pure Python; the script prefers the device's own pytest.
+fetch_debian13() {  # package...: unpacked under $DEPS/debian13
+  local apt=/tmp/dw-prepare-apt
+  local o=(-o Dir::Etc::SourceList=$apt/sources.list -o Dir::Etc::SourceParts=/dev/null
+           -o Dir::State::Lists=$apt/lists -o Dir::Cache=$apt/cache -o APT::Sandbox::User=root)
+  mkdir -p "$apt/lists/partial" "$apt/cache/archives/partial" "$apt/debs" "$DEPS/debian13"
+  echo "deb [signed-by=/usr/share/keyrings/debian-archive-keyring.gpg] http://deb.debian.org/debian trixie main" \
+    > "$apt/sources.list"
+  apt-get "${o[@]}" -qq update
+  (cd "$apt/debs" && apt-get "${o[@]}" -qq download "$@")
+  for deb in "$apt"/debs/*.deb; do dpkg-deb -x "$deb" "$DEPS/debian13"; done
+}
+if [ ! -d "$DEPS/pybind11/include/pybind11" ] || [ ! -d "$DEPS/pytest/_pytest" ]; then
+  fetch_debian13 pybind11-dev python3-pytest python3-pluggy python3-iniconfig python3-packaging
+  rm -rf "$DEPS/pybind11" "$DEPS/pytest"
+  mkdir -p "$DEPS/pybind11/include" "$DEPS/pybind11/lib/cmake" "$DEPS/pytest"
+  cp -r "$DEPS/debian13/usr/include/pybind11" "$DEPS/pybind11/include/"
+  cp -r "$DEPS/debian13/usr/lib/cmake/pybind11" "$DEPS/pybind11/lib/cmake/"
+  cp -r "$DEPS"/debian13/usr/lib/python3/dist-packages/* "$DEPS/pytest/"
+  rm -rf "$DEPS/debian13"
 fi
 du -sh "$DEPS"
