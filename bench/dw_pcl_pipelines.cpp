@@ -272,7 +272,8 @@ Row measure(const std::string& algo, const std::string& which, const Cloud::Ptr&
             unsigned t, double tolerance, const Covariances* reference, Covariances* keep) {
   Row r;
   Outcome first;
-  r.incl = best(o.repeats, t, [&] { first = runAlgorithm(algo, cloud, o, t, tolerance, makeSearch(which, t), true); });
+  r.incl = best(o.repeats, t,
+                [&] { first = runAlgorithm(algo, cloud, o, t, tolerance, makeSearch(which, t), true); });
   r.result = first.result;
   if (reference) r.cov_diff = maxDifference(first.covs, *reference);
   if (keep) *keep = std::move(first.covs);
@@ -305,7 +306,8 @@ std::string cell(const Row& r) {
 
 std::string ratio(const Row& peer, const Row& walk) {
   char b[64];
-  std::snprintf(b, sizeof b, "%.2fx / %.2fx", peer.incl / walk.incl, walk.excl > 0 ? peer.excl / walk.excl : 0.0);
+  std::snprintf(b, sizeof b, "%.2fx / %.2fx", peer.incl / walk.incl,
+                walk.excl > 0 ? peer.excl / walk.excl : 0.0);
   return b;
 }
 
@@ -324,7 +326,8 @@ int main(int argc, char** argv) {
     const std::vector<std::string> searches = searchNames();
     std::printf("| data set | algorithm | threads |");
     for (const auto& s : searches) std::printf(" %s incl. / excl. build (ms) |", s.c_str());
-    for (std::size_t s = 0; s + 1 < searches.size(); ++s) std::printf(" %s / walk incl. / excl. |", searches[s].c_str());
+    for (std::size_t s = 0; s + 1 < searches.size(); ++s)
+      std::printf(" %s / walk incl. / excl. |", searches[s].c_str());
     std::printf("\n|---|---|---|");
     for (std::size_t s = 0; s < 2 * searches.size() - 1; ++s) std::printf("---|");
     std::printf("\n");
@@ -340,25 +343,26 @@ int main(int argc, char** argv) {
             rows.push_back(measure(algo, which, cloud, o, t, tolerance, rows.empty() ? nullptr : &ref_covs,
                                    rows.empty() ? &ref_covs : nullptr));
             const Row& r = rows.back();
-            const std::string param =
-                algo == "normals" ? "k=" + std::to_string(o.k)
-                : algo == "clusters" ? "tolerance=" + std::to_string(tolerance)
-                                     : "k=" + std::to_string(o.gicp_k);
-            csv << name << "," << cloud->size() << "," << algo << "," << param << "," << which << "," << t << ","
-                << (t == 1 ? "cpu" : "wall") << "," << r.incl << "," << r.build << "," << r.excl << ","
+            const std::string param = algo == "normals"    ? "k=" + std::to_string(o.k)
+                                      : algo == "clusters" ? "tolerance=" + std::to_string(tolerance)
+                                                           : "k=" + std::to_string(o.gicp_k);
+            csv << name << "," << cloud->size() << "," << algo << "," << param << "," << which << "," << t
+                << "," << (t == 1 ? "cpu" : "wall") << "," << r.incl << "," << r.build << "," << r.excl << ","
                 << r.result << "," << r.cov_diff << "\n";
             csv.flush();
           }
           bool same = true;
           double cov_diff = 0;
-          for (const Row& r : rows) same = same && r.result == rows[0].result, cov_diff = std::max(cov_diff, r.cov_diff);
+          for (const Row& r : rows)
+            same = same && r.result == rows[0].result, cov_diff = std::max(cov_diff, r.cov_diff);
           std::printf("| %s (%zu) | %s | %u |", name.c_str(), cloud->size(),
                       algo == "normals"    ? ("NormalEstimationOMP k=" + std::to_string(o.k)).c_str()
                       : algo == "clusters" ? "EuclideanClusterExtraction"
                                            : ("GICP covariances k=" + std::to_string(o.gicp_k)).c_str(),
                       t);
           for (const Row& r : rows) std::printf(" %s |", cell(r).c_str());
-          for (std::size_t s = 0; s + 1 < rows.size(); ++s) std::printf(" %s |", ratio(rows[s], rows.back()).c_str());
+          for (std::size_t s = 0; s + 1 < rows.size(); ++s)
+            std::printf(" %s |", ratio(rows[s], rows.back()).c_str());
           std::printf("%s", same ? "" : "  RESULTS DIFFER (finite normals / clusters)");
           if (algo == "gicp-cov") std::printf("  max |cov - KdTree's| %.2g", cov_diff);
           std::printf("\n");
@@ -368,19 +372,21 @@ int main(int argc, char** argv) {
             g.setCorrespondenceRandomness(o.gicp_k);
             Covariances covs;
             const double s = best(o.repeats, t, [&] { g.covariances(cloud, covs); });
-            csv << name << "," << cloud->size() << ",gicp-cov,k=" << o.gicp_k << ",pcl-gicp-stock," << t << ","
-                << (t == 1 ? "cpu" : "wall") << "," << s << ",,," << covs.size() << "," << maxDifference(covs, ref_covs)
-                << "\n";
-            std::printf("|   | pcl::GICP::computeCovariances (its KdTree, k=%d) | %u | %.1f ms incl. build; max "
-                        "|cov - the loop's| %.2g |\n",
-                        o.gicp_k, t, s * 1e3, maxDifference(covs, ref_covs));
+            csv << name << "," << cloud->size() << ",gicp-cov,k=" << o.gicp_k << ",pcl-gicp-stock," << t
+                << "," << (t == 1 ? "cpu" : "wall") << "," << s << ",,," << covs.size() << ","
+                << maxDifference(covs, ref_covs) << "\n";
+            std::printf(
+                "|   | pcl::GICP::computeCovariances (its KdTree, k=%d) | %u | %.1f ms incl. build; max "
+                "|cov - the loop's| %.2g |\n",
+                o.gicp_k, t, s * 1e3, maxDifference(covs, ref_covs));
           }
         }
       }
     }
-    std::cout << "(X / walk: search X's time over DelaunayWalk's, > 1 = the walk is faster; one thread: process "
-                 "CPU time, more: wall clock)\nresults in "
-              << o.out << "/\n";
+    std::cout
+        << "(X / walk: search X's time over DelaunayWalk's, > 1 = the walk is faster; one thread: process "
+           "CPU time, more: wall clock)\nresults in "
+        << o.out << "/\n";
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "dw_pcl_pipelines: error: " << e.what() << "\n";

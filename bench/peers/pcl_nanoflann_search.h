@@ -28,10 +28,10 @@ template <typename PointT>
 class NanoflannSearch : public pcl::search::Search<PointT> {
  public:
   using Base = pcl::search::Search<PointT>;
-  using typename Base::IndicesConstPtr;
-  using typename Base::PointCloudConstPtr;
   using Base::nearestKSearch;
   using Base::radiusSearch;
+  using typename Base::IndicesConstPtr;
+  using typename Base::PointCloudConstPtr;
 
   explicit NanoflannSearch(bool sorted = false) : Base("NanoflannSearch", sorted) {}
 
