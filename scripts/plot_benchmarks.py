@@ -782,7 +782,6 @@ def peers_pipelines(res, figs, md):
         ax.set_xticks([j + 0.4 - w / 2 for j in range(len(one))])
         ax.set_xticklabels([f"{d}\n{names.get(a, a)}" for d, _, a, _ in one], fontsize=6, rotation=30, ha="right")
         ax.set_title(title + " (one thread, CPU)")
-        ax.set_yscale("log")
     axes[0].set_ylabel("ms")
     axes[0].legend(fontsize=7)
     fig.tight_layout()
