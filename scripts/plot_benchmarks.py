@@ -10,9 +10,9 @@ usage: plot_benchmarks.py RESULTS_DIR [--figures docs/figures]
        plot_benchmarks.py --peers PEERS_DIR [--figures docs/figures]
 
 With --peers, PEERS_DIR holds dw_peers' CSV files (bench/dw_peers.cpp: build.csv, nn.csv, knn.csv,
-icp.csv, meta.csv, or folders of them, e.g. one per data set): the figures peers_*.png (per-query time
-against cloud size per method, thread scaling, kNN time against k, the ICP time breakdown, build time
-against n) and PEERS_DIR/tables.md.
+icp.csv, meta.csv, or folders of them, e.g. one per data set; dw_pcl_pipelines' pipelines.csv): the
+figures peers_*.png (per-query time against cloud size per method, thread scaling, kNN time against k,
+the ICP time breakdown, build time against n, PCL's pipelines per search) and PEERS_DIR/tables.md.
 
 RESULTS_DIR holds dw_bench's CSV files, or folders of them (bench/run_grid.sh writes one folder per job:
 files of the same name are concatenated; where two rows measure the same thing, the one from the file
@@ -732,6 +732,63 @@ def peers_build(res, figs, md):
     plt.close(fig)
 
 
+def peers_pipelines(res, figs, md):
+    """dw_pcl_pipelines' pipelines.csv: PCL's algorithms per search, build included and excluded."""
+    rows = peers_read(res, "pipelines.csv")
+    if not rows:
+        return
+    searches = []
+    for r in rows:
+        if r["search"] not in searches and r["search"] != "pcl-gicp-stock":
+            searches.append(r["search"])
+    cases = []
+    for r in rows:
+        c = (r["dataset"], r["points"], r["algorithm"], r["threads"])
+        if c not in cases:
+            cases.append(c)
+    t = {(r["dataset"], r["algorithm"], r["threads"], r["search"]): r for r in rows}
+    names = {"normals": "NormalEstimationOMP", "clusters": "EuclideanClusterExtraction", "gicp-cov": "GICP covariances"}
+    md.append("### PCL pipelines, one process (ms incl. / excl. build; X / walk: X's time over the walk's)\n")
+    body = []
+    for d, n, a, th in cases:
+        walk = t.get((d, a, th, "delaunay-walk"))
+        cells = []
+        for s in searches:
+            r = t.get((d, a, th, s))
+            cells.append("–" if r is None else f"{1e3 * float(r['seconds_incl_build']):.1f} / "
+                                                f"{1e3 * float(r['seconds_excl_build']):.1f}")
+        ratios = []
+        for s in searches[:-1]:
+            r = t.get((d, a, th, s))
+            if r is None or walk is None:
+                ratios.append("–")
+                continue
+            inc = float(r["seconds_incl_build"]) / float(walk["seconds_incl_build"])
+            exc = float(r["seconds_excl_build"]) / max(1e-12, float(walk["seconds_excl_build"]))
+            ratios.append(f"{inc:.2f}× / {exc:.2f}×")
+        body.append([f"{d} ({n})", names.get(a, a), th] + cells + ratios)
+    md.append(table(["data set", "algorithm", "threads"] + [f"{s} incl. / excl." for s in searches] +
+                    [f"{s} / walk" for s in searches[:-1]], body))
+    md.append("")
+    one = [c for c in cases if c[3] == "1"]
+    if not one:
+        return
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), sharey=True)
+    for ax, key, title in zip(axes, ("seconds_incl_build", "seconds_excl_build"), ("build included", "build excluded")):
+        w = 0.8 / len(searches)
+        for i, s in enumerate(searches):
+            ys = [1e3 * float(t[(d, a, th, s)][key]) if (d, a, th, s) in t else 0 for d, _, a, th in one]
+            ax.bar([j + i * w for j in range(len(one))], ys, w, label=s)
+        ax.set_xticks([j + 0.4 - w / 2 for j in range(len(one))])
+        ax.set_xticklabels([f"{d}\n{names.get(a, a)}" for d, _, a, _ in one], fontsize=6, rotation=30, ha="right")
+        ax.set_title(title + " (one thread, CPU)")
+    axes[0].set_ylabel("ms")
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(os.path.join(figs, "peers_pipelines.png"), dpi=110)
+    plt.close(fig)
+
+
 def peers_main(res, figs):
     md = []
     meta = peers_read(res, "meta.csv")
@@ -739,7 +796,7 @@ def peers_main(res, figs):
     hw = next((r["value"] for r in meta if r["key"] == "hardware_threads"), "?")
     peers = sorted({r["value"] for r in meta if r["key"] == "peer"})
     md.append(f"Machine: {cpu}, {hw} hardware threads; peers: {', '.join(peers)}.\n")
-    for f in (peers_nn, peers_knn, peers_icp, peers_build):
+    for f in (peers_nn, peers_knn, peers_icp, peers_build, peers_pipelines):
         f(res, figs, md)
     with open(os.path.join(res, "tables.md"), "w") as f:
         f.write("\n".join(md) + "\n")
