@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 
 #include "core/dem/stream_frontier.h"
 #include "core/dem/stream_raster.h"
@@ -31,15 +32,14 @@ constexpr std::size_t kBytesPerStripPoint = 260;
 constexpr std::size_t kHistogramBins = 1 << 16;
 constexpr std::size_t kMaxStrips = 512;  // one open spill file each
 
-/// One spilled point: 32 bytes.
-struct SpillRecord {
-  std::uint64_t index;
-  double x, y, value;
-};
+/// One spilled point, 20 bytes packed: the global index and the frame integers (x, y and z or the
+/// intensity), from which the frame coordinates and the value are recomputed bit for bit.
+constexpr std::size_t kSpillBytes = 20;
 
 struct Spill {
   std::FILE* f = nullptr;
   std::uint64_t count = 0;
+  std::vector<char> buffer;  // stdio's buffer: large writes, not one per 4 KB
   ~Spill() {
     if (f) std::fclose(f);
   }
@@ -64,7 +64,13 @@ struct StreamDem::Impl {
   StreamDemStats stats;
   Clock::time_point t0 = Clock::now();
 
-  /// Reads every kept point of every input in order, as (index, frame x, frame y, value, world x, y).
+  /// The frame coordinates and the value of a point's integers (LAS units of the first input).
+  double frameX(std::int32_t x) const { return same_scale ? double(x) : x * first.scale[0]; }
+  double frameY(std::int32_t y) const { return same_scale ? double(y) : y * first.scale[1]; }
+  double valueOf(std::int32_t v) const { return o.intensity ? double(v) : v * first.scale[2] + first.offset[2]; }
+
+  /// Reads every kept point of every input in order, as (index, x, y, v, world x, world y): x, y the
+  /// integers in the first input's frame, v its z integer or its intensity.
   template <class F>
   void forEachPoint(const char* stage, F&& f) {
     std::uint64_t index = 0, done = 0;
@@ -87,12 +93,9 @@ struct StreamDem::Impl {
           if (X < INT32_MIN || X > INT32_MAX || Y < INT32_MIN || Y > INT32_MAX || Z < INT32_MIN ||
               Z > INT32_MAX)
             throw Error(o.inputs[i] + ": a coordinate leaves the first input's frame");
-          const std::int32_t x = std::int32_t(X), y = std::int32_t(Y), z = std::int32_t(Z);
-          const double fx = same_scale ? double(x) : x * first.scale[0];
-          const double fy = same_scale ? double(y) : y * first.scale[1];
-          const double value = o.intensity ? double(r.intensity) : z * first.scale[2] + first.offset[2];
-          f(index++, fx, fy, value, x * first.scale[0] + first.offset[0],
-            y * first.scale[1] + first.offset[1]);
+          const std::int32_t x = std::int32_t(X), y = std::int32_t(Y);
+          const std::int32_t v = o.intensity ? std::int32_t(r.intensity) : std::int32_t(Z);
+          f(index++, x, y, v, x * first.scale[0] + first.offset[0], y * first.scale[1] + first.offset[1]);
         }
         done += chunk.size();
         report(stage, done, t);
@@ -135,7 +138,8 @@ struct StreamDem::Impl {
     }
     hist.assign(kHistogramBins, 0);
     std::vector<double> hx, hy;
-    forEachPoint("scan", [&](std::uint64_t, double fx, double fy, double, double wx, double wy) {
+    forEachPoint("scan", [&](std::uint64_t, std::int32_t x, std::int32_t y, std::int32_t, double wx, double wy) {
+      const double fx = frameX(x), fy = frameY(y);
       ++kept;
       lo[0] = std::min(lo[0], wx), hi[0] = std::max(hi[0], wx);
       lo[1] = std::min(lo[1], wy), hi[1] = std::max(hi[1], wy);
@@ -243,36 +247,50 @@ StreamDemStats StreamDem::run(const StreamRowSink& sink) {
   Impl& m = *impl_;
   const std::size_t strips = m.seams.size() + 1;
   std::vector<Spill> spill(strips);
+  // stdio buffers of an eighth of the memory limit together, 4 KB to 1 MB each.
+  const std::size_t buffer_bytes =
+      std::min<std::size_t>(1 << 20, std::max<std::size_t>(4096, m.o.memory_limit_mb * 131072 / strips));
   for (Spill& s : spill) {
     s.f = std::tmpfile();  // unlinked: gone however the run ends
     if (!s.f) throw Error("dw::dem::StreamDem: cannot create a spill file in the temporary folder");
+    s.buffer.resize(buffer_bytes);
+    std::setvbuf(s.f, s.buffer.data(), _IOFBF, s.buffer.size());
   }
   const auto t_spill = Clock::now();
-  m.forEachPoint("spill", [&](std::uint64_t index, double fx, double fy, double value, double, double) {
-    Spill& s = spill[m.stripOf(fy)];
-    const SpillRecord r{index, fx, fy, value};
-    if (std::fwrite(&r, sizeof r, 1, s.f) != 1) throw Error("dw::dem::StreamDem: cannot write a spill file");
+  m.forEachPoint("spill", [&](std::uint64_t index, std::int32_t x, std::int32_t y, std::int32_t v, double, double) {
+    Spill& s = spill[m.stripOf(m.frameY(y))];
+    char r[kSpillBytes];
+    std::memcpy(r, &index, 8), std::memcpy(r + 8, &x, 4), std::memcpy(r + 12, &y, 4), std::memcpy(r + 16, &v, 4);
+    if (std::fwrite(r, kSpillBytes, 1, s.f) != 1) throw Error("dw::dem::StreamDem: cannot write a spill file");
     ++s.count;
   });
+  for (Spill& s : spill)
+    if (std::fflush(s.f) != 0) throw Error("dw::dem::StreamDem: cannot write a spill file");
   m.stats.spill_s = since(t_spill);
 
   const auto t_strips = Clock::now();
-  detail::StreamRaster raster(m.fgrid, m.hull, m.o.max_edge / m.k, m.o.nodata, sink);
+  detail::StreamRaster raster(m.fgrid, m.hull, m.o.max_edge / m.k, m.o.nodata, sink, m.o.threads);
   detail::StreamTin tin(&m.hull, m.o.threads);
   std::uint64_t done = 0;
-  std::vector<SpillRecord> buf;
+  std::vector<char> buf;
   for (std::size_t s = 0; s < strips; ++s) {
     detail::StripPoints p;
-    buf.resize(spill[s].count);
+    const std::size_t count = spill[s].count;
+    buf.resize(count * kSpillBytes);
     std::rewind(spill[s].f);
-    if (!buf.empty() && std::fread(buf.data(), sizeof(SpillRecord), buf.size(), spill[s].f) != buf.size())
+    if (count > 0 && std::fread(buf.data(), kSpillBytes, count, spill[s].f) != count)
       throw Error("dw::dem::StreamDem: cannot read a spill file back");
     std::fclose(spill[s].f);
     spill[s].f = nullptr;
-    p.x.resize(buf.size()), p.y.resize(buf.size()), p.value.resize(buf.size()), p.index.resize(buf.size());
-    for (std::size_t i = 0; i < buf.size(); ++i)
-      p.index[i] = buf[i].index, p.x[i] = buf[i].x, p.y[i] = buf[i].y, p.value[i] = buf[i].value;
-    std::vector<SpillRecord>().swap(buf);
+    std::vector<char>().swap(spill[s].buffer);
+    p.x.resize(count), p.y.resize(count), p.value.resize(count), p.index.resize(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      const char* r = buf.data() + i * kSpillBytes;
+      std::int32_t x, y, v;
+      std::memcpy(&p.index[i], r, 8), std::memcpy(&x, r + 8, 4), std::memcpy(&y, r + 12, 4), std::memcpy(&v, r + 16, 4);
+      p.x[i] = m.frameX(x), p.y[i] = m.frameY(y), p.value[i] = m.valueOf(v);
+    }
+    std::vector<char>().swap(buf);
     m.stats.max_strip_points = std::max(m.stats.max_strip_points, p.size());
     done += p.size();
     const double seam = s + 1 < strips ? m.seams[s] : -HUGE_VAL;

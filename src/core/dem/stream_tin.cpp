@@ -122,7 +122,7 @@ void StreamTin::addStrip(StripPoints&& strip, double seam, const FinalTriangles&
   std::vector<index_t> live, fin, open;
   for (std::size_t k = 0; k < nt; ++k)
     if (label[k] == kTrue) live.insert(live.end(), {t[3 * k], t[3 * k + 1], t[3 * k + 2]});
-  splitFinalTriangles(pts.x.data(), pts.y.data(), live.data(), live.size(), seam, hull_, fin, open);
+  splitFinalTriangles(pts.x.data(), pts.y.data(), live.data(), live.size(), seam, hull_, fin, open, threads_);
   std::size_t fi = 0;  // the split keeps the order: each live triangle is the next final one or open
   for (std::size_t k = 0; k < nt; ++k) {
     if (label[k] != kTrue) continue;
