@@ -144,7 +144,7 @@ Result runInMemory(const Arguments& a) {
   lo.classification = a.cls;
   lo.threads = a.threads;
   dw::las::LasCloud las = dw::las::readLasFile(a.inputs[0], lo);
-  const dw::las::LasHeader& h = las.header;
+  const dw::las::LasHeader h = las.header;  // a copy: the cloud is released before the raster
   for (std::size_t i = 1; i < a.inputs.size(); ++i) {
     const dw::las::LasCloud more = dw::las::readLasFile(a.inputs[i], lo);
     std::int64_t shift[3];

@@ -41,8 +41,9 @@ INMEM=$(count "${DEM_SCALE_INMEM:-100M}")
 ((TILE > N)) && TILE=$N
 TILES=$((N / TILE))
 N=$((TILES * TILE))
-# A square survey of W x 2W tiles: about twice as many columns as rows.
-COLS=$(python3 -c "import math; print(max(1, min($TILES, round(math.sqrt(2 * $TILES)))))")
+# A rectangle of tiles W x 2W each: ROWS the divisor of TILES nearest sqrt(TILES / 2), about square.
+COLS=$(python3 -c "import math; t = $TILES; r = min((d for d in range(1, t + 1) if t % d == 0),
+  key=lambda d: abs(d - math.sqrt(t / 2))); print(t // r)")
 INMEM_TILES=$((INMEM / TILE))
 ((INMEM_TILES > TILES)) && INMEM_TILES=$TILES
 
@@ -56,7 +57,7 @@ say "== $N points: $TILES tiles of $TILE points, $COLS tile columns; $THREADS th
 # Disk: 20 bytes a point for the tiles, 20 for the spill files (kept points), plus the rasters.
 need_kb=$((N / 1024 * 42))
 free_kb=$(df -Pk "$DIR" | awk 'NR == 2 { print $4 }')
-say "disk: needs about $((need_kb / 1048576)) GiB in $DIR, $((free_kb / 1048576)) GiB free"
+say "disk: needs about $((need_kb / 1024)) MiB in $DIR, $((free_kb / 1024)) MiB free"
 ((need_kb < free_kb)) || { say "not enough disk for $N points: run fewer"; exit 1; }
 
 t=$(date +%s.%N)
@@ -78,11 +79,12 @@ run_dem() {
   local label=$1 out=$2
   shift 2
   say "-- $label"
-  "${TIMEV[@]}" "$D" "$@" -o "$out" --resolution 1 --threads "$THREADS" > "$OUT/dem_scale_$label.log" \
-    2> >(tee "$OUT/dem_scale_$label.err" | grep -E "^\s*\[|rror" >&2)
-  local rc=$?
+  # stdout to the log; stderr (progress, time -v) through tee, its progress lines shown as they come.
+  "${TIMEV[@]}" "$D" "$@" -o "$out" --resolution 1 --threads "$THREADS" 2>&1 > "$OUT/dem_scale_$label.log" |
+    tee "$OUT/dem_scale_$label.err" | grep -E "^\s*\[|rror" >&2
+  local rc=${PIPESTATUS[0]}
   grep -E "^(read|scan|strips|raster|result)" "$OUT/dem_scale_$label.log" | tee -a "$S"
-  grep -E "Maximum resident|Elapsed \(wall" "$OUT/dem_scale_$label.err" | sed 's/^\s*/  time -v: /' | tee -a "$S"
+  grep -E "Maximum resident|Elapsed \(wall|User time|System time" "$OUT/dem_scale_$label.err" | sed 's/^\s*/  time -v: /' | tee -a "$S"
   ((rc == 0)) || say "   FAILED (exit $rc)"
   return $rc
 }

@@ -8,6 +8,7 @@
 #include <unordered_set>
 
 #include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
 
 namespace dw {
 namespace dem {
@@ -136,23 +137,32 @@ void StreamTin::addStrip(StripPoints&& strip, double seam, const FinalTriangles&
   // The new frontier: old frontier edges and final triangles' edges whose other side is not final.
   std::vector<char> keep(n, 0);
   for (std::size_t k = 0; k < open.size(); ++k) keep[open[k]] = 1;
-  std::vector<std::pair<std::uint64_t, std::uint64_t>> next;
-  auto consider = [&](index_t a, index_t b) {
+  auto isFrontier = [&](index_t a, index_t b) {
     const index_t across = edges.find(b, a);
-    bool frontier;
-    if (across != kNoTriangle)
-      frontier = label[across] == kOpen;
-    else if (old_set.count(edgeKey(b, a)))
-      frontier = false;
-    else  // a hull edge: stays on the frontier while a later point may come outside it
-      frontier = laterPointsMayLieRightOf(pts.x[a], pts.y[a], pts.x[b], pts.y[b], seam, hull_);
-    if (!frontier) return;
-    next.emplace_back(pts.index[a], pts.index[b]);
-    keep[a] = keep[b] = 1;
+    if (across != kNoTriangle) return label[across] == kOpen;
+    if (old_set.count(edgeKey(b, a))) return false;
+    // A hull edge: stays on the frontier while a later point may come outside it.
+    return laterPointsMayLieRightOf(pts.x[a], pts.y[a], pts.x[b], pts.y[b], seam, hull_);
   };
-  for (const auto& e : old_frontier) consider(e.first, e.second);
-  for (std::size_t k = 0; k < fin.size(); k += 3)
-    for (int j = 0; j < 3; ++j) consider(fin[k + j], fin[k + (j + 1) % 3]);
+  std::vector<std::pair<index_t, index_t>> found;
+  for (const auto& e : old_frontier)
+    if (isFrontier(e.first, e.second)) found.push_back(e);
+  // The final triangles' edges in blocks, appended in block order (the same list for any thread count).
+  const std::size_t nf = fin.size() / 3;
+  const unsigned workers = workerCount(nf, threads_, 16384);
+  std::vector<std::vector<std::pair<index_t, index_t>>> per(workers);
+  parallelFor(nf, workers, [&](std::size_t b, std::size_t e, unsigned w) {
+    for (std::size_t k = 3 * b; k < 3 * e; k += 3)
+      for (int j = 0; j < 3; ++j)
+        if (isFrontier(fin[k + j], fin[k + (j + 1) % 3])) per[w].emplace_back(fin[k + j], fin[k + (j + 1) % 3]);
+  });
+  for (const auto& v : per) found.insert(found.end(), v.begin(), v.end());
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> next;
+  next.reserve(found.size());
+  for (const auto& e : found) {
+    next.emplace_back(pts.index[e.first], pts.index[e.second]);
+    keep[e.first] = keep[e.second] = 1;
+  }
   frontier_.swap(next);
 
   for (std::size_t i = 0; i < n; ++i)
