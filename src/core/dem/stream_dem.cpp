@@ -3,15 +3,18 @@
 #include "pcl_delaunay_walk/core/dem/stream_dem.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <mutex>
 
 #include "core/dem/stream_frontier.h"
 #include "core/dem/stream_raster.h"
 #include "core/dem/stream_tin.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
 
 namespace dw {
 namespace dem {
@@ -45,6 +48,63 @@ struct Spill {
   }
 };
 
+/// The convex hull of points added one by one: hull(points so far) = hull(hull of the earlier ones u
+/// the new batch), folded every 65,536 points that may be hull vertices.
+struct RunningHull {
+  detail::Hull hull;
+  std::vector<double> core_x, core_y;  // see insideCore
+  std::vector<double> hx, hy;          // the batch
+
+  void add(double x, double y) {
+    if (insideCore(x, y)) return;
+    hx.push_back(x), hy.push_back(y);
+    if (hx.size() >= (1u << 16)) fold();
+  }
+
+  void fold() {
+    hx.insert(hx.end(), hull.x.begin(), hull.x.end());
+    hy.insert(hy.end(), hull.y.begin(), hull.y.end());
+    hull = detail::convexHull(hx.data(), hy.data(), hx.size());
+    hx.clear(), hy.clear();
+    // The hull's extreme vertices in eight directions, counter-clockwise: a polygon inside the hull.
+    core_x.clear(), core_y.clear();
+    for (int d = 0; d < 8 && hull.x.size() >= 3; ++d) {
+      const double cx = std::cos(d * 0.7853981633974483), cy = std::sin(d * 0.7853981633974483);
+      std::size_t best = 0;
+      for (std::size_t i = 1; i < hull.x.size(); ++i)
+        if (hull.x[i] * cx + hull.y[i] * cy > hull.x[best] * cx + hull.y[best] * cy) best = i;
+      if (core_x.empty() || core_x.back() != hull.x[best] || core_y.back() != hull.y[best])
+        core_x.push_back(hull.x[best]), core_y.push_back(hull.y[best]);
+    }
+  }
+
+  /// Whether (x, y) lies inside the core polygon by a margin far above rounding: then it is inside the
+  /// hull of the points so far and cannot be a vertex of any later hull (it only skips work).
+  bool insideCore(double x, double y) const {
+    const std::size_t m = core_x.size();
+    if (m < 3) return false;
+    for (std::size_t i = 0; i < m; ++i) {
+      const std::size_t j = (i + 1) % m;
+      const double ex = core_x[j] - core_x[i], ey = core_y[j] - core_y[i];
+      const double wx = x - core_x[i], wy = y - core_y[i];
+      const double slack = 1e-9 * (std::fabs(ex) + std::fabs(ey)) *
+                           (std::fabs(core_x[i]) + std::fabs(core_y[i]) + std::fabs(x) + std::fabs(y) + 1.0);
+      if (!(ex * wy - ey * wx > slack)) return false;
+    }
+    return true;
+  }
+};
+
+/// What pass 1 learns from some of the files; parts combine exactly in any order (counts and
+/// histograms add, bounds take min/max, the hull of the union is the hull of the parts' hulls, and
+/// convexHull's output depends only on the set of points).
+struct ScanPart {
+  std::uint64_t kept = 0, records = 0;
+  double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
+  std::vector<std::uint64_t> hist;
+  RunningHull hull;
+};
+
 }  // namespace
 
 struct StreamDem::Impl {
@@ -58,7 +118,6 @@ struct StreamDem::Impl {
   double hist_lo = 0, hist_hi = 0;
   std::vector<std::uint64_t> hist;
   detail::Hull hull;
-  std::vector<double> core_x, core_y;  // see insideCore
   RasterGrid grid, fgrid;
   std::vector<double> seams;  // descending; strip s: seams[s] <= y < seams[s - 1]
   StreamDemStats stats;
@@ -69,38 +128,44 @@ struct StreamDem::Impl {
   double frameY(std::int32_t y) const { return same_scale ? double(y) : y * first.scale[1]; }
   double valueOf(std::int32_t v) const { return o.intensity ? double(v) : v * first.scale[2] + first.offset[2]; }
 
-  /// Reads every kept point of every input in order, as (index, x, y, v, world x, world y): x, y the
-  /// integers in the first input's frame, v its z integer or its intensity.
+  /// Reads every kept point of input i in order, as (x, y, v, world x, world y): x, y the integers in
+  /// the first input's frame, v its z integer or its intensity; after each chunk, chunk(records).
+  template <class F, class C>
+  void forEachPointOf(std::size_t i, F&& f, C&& chunk_done) const {
+    std::vector<LasRecord> chunk;
+    LasReader reader(o.inputs[i]);
+    const LasHeader& h = reader.header();
+    std::int64_t shift[3] = {0, 0, 0};
+    for (int a = 0; a < 3 && i > 0; ++a) {
+      const double d = (h.offset[a] - first.offset[a]) / first.scale[a];
+      if (h.scale[a] != first.scale[a] || d != std::round(d) || std::fabs(d) > 4e9)
+        throw Error(o.inputs[i] + ": its LAS scale and offset do not share the first input's integer grid");
+      shift[a] = std::int64_t(d);
+    }
+    while (reader.read(chunk, 1 << 16) > 0) {
+      for (const LasRecord& r : chunk) {
+        if (o.classification >= 0 && r.classification != o.classification) continue;
+        const std::int64_t X = r.X + shift[0], Y = r.Y + shift[1], Z = r.Z + shift[2];
+        if (X < INT32_MIN || X > INT32_MAX || Y < INT32_MIN || Y > INT32_MAX || Z < INT32_MIN ||
+            Z > INT32_MAX)
+          throw Error(o.inputs[i] + ": a coordinate leaves the first input's frame");
+        const std::int32_t x = std::int32_t(X), y = std::int32_t(Y);
+        const std::int32_t v = o.intensity ? std::int32_t(r.intensity) : std::int32_t(Z);
+        f(x, y, v, x * first.scale[0] + first.offset[0], y * first.scale[1] + first.offset[1]);
+      }
+      chunk_done(chunk.size());
+    }
+  }
+
+  /// Every kept point of every input in order, as (index, x, y, v, world x, world y).
   template <class F>
   void forEachPoint(const char* stage, F&& f) {
     std::uint64_t index = 0, done = 0;
     const auto t = Clock::now();
-    std::vector<LasRecord> chunk;
-    for (std::size_t i = 0; i < o.inputs.size(); ++i) {
-      LasReader reader(o.inputs[i]);
-      const LasHeader& h = reader.header();
-      std::int64_t shift[3] = {0, 0, 0};
-      for (int a = 0; a < 3 && i > 0; ++a) {
-        const double d = (h.offset[a] - first.offset[a]) / first.scale[a];
-        if (h.scale[a] != first.scale[a] || d != std::round(d) || std::fabs(d) > 4e9)
-          throw Error(o.inputs[i] + ": its LAS scale and offset do not share the first input's integer grid");
-        shift[a] = std::int64_t(d);
-      }
-      while (reader.read(chunk, 1 << 16) > 0) {
-        for (const LasRecord& r : chunk) {
-          if (o.classification >= 0 && r.classification != o.classification) continue;
-          const std::int64_t X = r.X + shift[0], Y = r.Y + shift[1], Z = r.Z + shift[2];
-          if (X < INT32_MIN || X > INT32_MAX || Y < INT32_MIN || Y > INT32_MAX || Z < INT32_MIN ||
-              Z > INT32_MAX)
-            throw Error(o.inputs[i] + ": a coordinate leaves the first input's frame");
-          const std::int32_t x = std::int32_t(X), y = std::int32_t(Y);
-          const std::int32_t v = o.intensity ? std::int32_t(r.intensity) : std::int32_t(Z);
-          f(index++, x, y, v, x * first.scale[0] + first.offset[0], y * first.scale[1] + first.offset[1]);
-        }
-        done += chunk.size();
-        report(stage, done, t);
-      }
-    }
+    for (std::size_t i = 0; i < o.inputs.size(); ++i)
+      forEachPointOf(
+          i, [&](std::int32_t x, std::int32_t y, std::int32_t v, double wx, double wy) { f(index++, x, y, v, wx, wy); },
+          [&](std::size_t records) { report(stage, done += records, t); });
   }
 
   void report(const char* stage, std::uint64_t done, Clock::time_point t) {
@@ -136,19 +201,46 @@ struct StreamDem::Impl {
       hist_lo = std::min(hist_lo, (r.header().min[1] - off) / k);
       hist_hi = std::max(hist_hi, (r.header().max[1] - off) / k);
     }
-    hist.assign(kHistogramBins, 0);
-    std::vector<double> hx, hy;
-    forEachPoint("scan", [&](std::uint64_t, std::int32_t x, std::int32_t y, std::int32_t, double wx, double wy) {
-      const double fx = frameX(x), fy = frameY(y);
-      ++kept;
-      lo[0] = std::min(lo[0], wx), hi[0] = std::max(hi[0], wx);
-      lo[1] = std::min(lo[1], wy), hi[1] = std::max(hi[1], wy);
-      hist[bin(fy)]++;
-      if (insideCore(fx, fy)) return;
-      hx.push_back(fx), hy.push_back(fy);
-      if (hx.size() >= (1u << 16)) foldHull(hx, hy);
+    // The files in parallel, one at a time per worker, each worker with its own part.
+    const unsigned workers = std::min<unsigned>(resolveThreads(o.threads), unsigned(o.inputs.size()));
+    std::vector<ScanPart> parts(workers);
+    std::atomic<std::size_t> next_file{0};
+    std::atomic<std::uint64_t> done{0};
+    std::mutex report_mutex;
+    const auto t = Clock::now();
+    parallelFor(workers, workers, [&](std::size_t, std::size_t, unsigned w) {
+      ScanPart& part = parts[w];
+      part.hist.assign(kHistogramBins, 0);
+      for (std::size_t i; (i = next_file++) < o.inputs.size();) {
+        forEachPointOf(
+            i,
+            [&](std::int32_t x, std::int32_t y, std::int32_t, double wx, double wy) {
+              const double fx = frameX(x), fy = frameY(y);
+              ++part.kept;
+              part.lo[0] = std::min(part.lo[0], wx), part.hi[0] = std::max(part.hi[0], wx);
+              part.lo[1] = std::min(part.lo[1], wy), part.hi[1] = std::max(part.hi[1], wy);
+              part.hist[bin(fy)]++;
+              part.hull.add(fx, fy);
+            },
+            [&](std::size_t records) {
+              const std::uint64_t d = done += records;
+              std::lock_guard<std::mutex> lock(report_mutex);
+              report("scan", d, t);
+            });
+      }
+      part.hull.fold();
     });
-    foldHull(hx, hy);
+    hist.assign(kHistogramBins, 0);
+    RunningHull all;
+    for (ScanPart& part : parts) {
+      kept += part.kept;
+      for (int a = 0; a < 2; ++a) lo[a] = std::min(lo[a], part.lo[a]), hi[a] = std::max(hi[a], part.hi[a]);
+      for (std::size_t b = 0; b < kHistogramBins; ++b) hist[b] += part.hist[b];
+      for (std::size_t v = 0; v < part.hull.hull.x.size(); ++v) all.add(part.hull.hull.x[v], part.hull.hull.y[v]);
+      part = ScanPart();
+    }
+    all.fold();
+    hull = all.hull;
     if (kept == 0)
       throw Error((o.inputs.size() == 1 ? o.inputs[0] : "the inputs") + ": no points" +
                   (o.classification >= 0 ? " of class " + std::to_string(o.classification) : std::string()));
@@ -161,40 +253,6 @@ struct StreamDem::Impl {
     if (!(w > 0)) return 0;
     const double b = std::floor((fy - hist_lo) / w);
     return b < 0 ? 0 : (b >= double(kHistogramBins) ? kHistogramBins - 1 : std::size_t(b));
-  }
-
-  /// The running hull: hull(points so far) = hull(hull of the earlier ones u this chunk).
-  void foldHull(std::vector<double>& hx, std::vector<double>& hy) {
-    hx.insert(hx.end(), hull.x.begin(), hull.x.end());
-    hy.insert(hy.end(), hull.y.begin(), hull.y.end());
-    hull = detail::convexHull(hx.data(), hy.data(), hx.size());
-    hx.clear(), hy.clear();
-    // The hull's extreme vertices in eight directions, counter-clockwise: a polygon inside the hull.
-    core_x.clear(), core_y.clear();
-    for (int d = 0; d < 8 && hull.x.size() >= 3; ++d) {
-      const double cx = std::cos(d * 0.7853981633974483), cy = std::sin(d * 0.7853981633974483);
-      std::size_t best = 0;
-      for (std::size_t i = 1; i < hull.x.size(); ++i)
-        if (hull.x[i] * cx + hull.y[i] * cy > hull.x[best] * cx + hull.y[best] * cy) best = i;
-      if (core_x.empty() || core_x.back() != hull.x[best] || core_y.back() != hull.y[best])
-        core_x.push_back(hull.x[best]), core_y.push_back(hull.y[best]);
-    }
-  }
-
-  /// Whether (x, y) lies inside the core polygon by a margin far above rounding: then it is inside the
-  /// hull of the points so far and cannot be a vertex of any later hull (it only skips work).
-  bool insideCore(double x, double y) const {
-    const std::size_t m = core_x.size();
-    if (m < 3) return false;
-    for (std::size_t i = 0; i < m; ++i) {
-      const std::size_t j = (i + 1) % m;
-      const double ex = core_x[j] - core_x[i], ey = core_y[j] - core_y[i];
-      const double wx = x - core_x[i], wy = y - core_y[i];
-      const double slack = 1e-9 * (std::fabs(ex) + std::fabs(ey)) *
-                           (std::fabs(core_x[i]) + std::fabs(core_y[i]) + std::fabs(x) + std::fabs(y) + 1.0);
-      if (!(ex * wy - ey * wx > slack)) return false;
-    }
-    return true;
   }
 
   void plan() {
