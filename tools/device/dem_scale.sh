@@ -81,7 +81,7 @@ run_dem() {
   say "-- $label"
   # stdout to the log; stderr (progress, time -v) through tee, its progress lines shown as they come.
   "${TIMEV[@]}" "$D" "$@" -o "$out" --resolution 1 --threads "$THREADS" 2>&1 > "$OUT/dem_scale_$label.log" |
-    tee "$OUT/dem_scale_$label.err" | grep -E "^\s*\[|rror" >&2
+    tee "$OUT/dem_scale_$label.err" | grep --line-buffered -E "^\s*\[|rror" >&2
   local rc=${PIPESTATUS[0]}
   grep -E "^(read|scan|strips|raster|result)" "$OUT/dem_scale_$label.log" | tee -a "$S"
   grep -E "Maximum resident|Elapsed \(wall|User time|System time" "$OUT/dem_scale_$label.err" | sed 's/^\s*/  time -v: /' | tee -a "$S"
