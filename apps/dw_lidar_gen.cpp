@@ -20,11 +20,13 @@ void usage() {
   std::fprintf(
       stderr,
       "usage: dw_lidar_gen -n POINTS -o out.las|out.laz [--laz] [--format F] [--density PULSES_PER_M2]\n"
-      "                    [--swath M] [--seed S] [--chunk N] [--variable-chunks]\n"
+      "                    [--swath M] [--seed S] [--chunk N] [--variable-chunks] [--tile COL ROW]\n"
       "  Writes a synthetic airborne LiDAR tile (LAS 1.2 format 1; LAS 1.4 format 6 beyond 2^32).\n"
       "  .laz or --laz: LASzip-compressed. --format F: point format 0-3 or 6-8 instead.\n"
       "  --chunk N: LAZ points per chunk (default 50000). --variable-chunks: LAZ chunks of varying\n"
       "  sizes, N/4 to N points each (LASzip's variable chunking: the chunk table holds the counts).\n"
+      "  --tile COL ROW: tile (COL, ROW) of a survey of equal tiles (same options): the tiles are one\n"
+      "  cloud with the same scale and offsets, ROW 0 the southern row of tiles.\n"
       "  POINTS and N accept suffixes k and M (e.g. 21M).\n");
 }
 
@@ -126,7 +128,12 @@ int main(int argc, char** argv) {
         o.swath = std::atof(value());
       else if (a == "--seed")
         o.seed = std::strtoull(value(), nullptr, 10);
-      else if (a == "-h" || a == "--help") {
+      else if (a == "--tile") {
+        const auto col = dw_apps::parseList(value(), "tile column", 0, 65535);
+        const auto row = dw_apps::parseList(value(), "tile row", 0, 65535);
+        if (col.size() != 1 || row.size() != 1) throw dw::Error("--tile takes a column and a row");
+        o.tile_col = col[0], o.tile_row = row[0];
+      } else if (a == "-h" || a == "--help") {
         usage();
         return 0;
       } else {

@@ -9,6 +9,7 @@
 #include "core/dem/ownership.h"
 #include "core/tin/circumdisk_side.h"
 #include "pcl_delaunay_walk/core/geometry/predicates_2d.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
 
 namespace dw {
 namespace dem {
@@ -54,14 +55,13 @@ double distanceTo(const Hull& h, double px, double py) {
 
 void splitFinalTriangles(const double* x, const double* y, const index_t* t, std::size_t num_indices,
                          double seam, const Hull* hull, std::vector<index_t>& final_out,
-                         std::vector<index_t>& open_out) {
+                         std::vector<index_t>& open_out, unsigned threads) {
   // Every later point lies in the global hull and has y < seam, so in `below`.
   const Hull below = hull ? clipBelow(*hull, seam) : Hull();
   double extent = std::fabs(seam);
   for (std::size_t i = 0; i < below.x.size(); ++i)
     extent = std::max({extent, std::fabs(below.x[i]), std::fabs(below.y[i])});
-  for (std::size_t k = 0; k + 2 < num_indices; k += 3) {
-    const index_t a = t[k], b = t[k + 1], c = t[k + 2];
+  auto isFinal = [&](index_t a, index_t b, index_t c) {
     // seam = -inf: the last strip, no point is to come.
     bool final = seam == -HUGE_VAL ||
                  tin::detail::circumdiskProvablyOnSide(x[a], y[a], x[b], y[b], x[c], y[c], 1, seam, false);
@@ -73,8 +73,22 @@ void splitFinalTriangles(const double* x, const double* y, const index_t* t, std
       const double slack = margin + 1e-9 * (extent + std::fabs(ox) + std::fabs(oy) + r);
       final = distanceTo(below, ox, oy) > r + slack;
     }
-    std::vector<index_t>& out = final ? final_out : open_out;
-    out.insert(out.end(), {a, b, c});
+    return final;
+  };
+  // Blocks of triangles, appended in block order: the output does not depend on the thread count.
+  const std::size_t num_tri = num_indices / 3;
+  const unsigned workers = workerCount(num_tri, threads, 16384);
+  std::vector<std::vector<index_t>> fin(workers), open(workers);
+  parallelFor(num_tri, workers, [&](std::size_t b, std::size_t e, unsigned w) {
+    for (std::size_t k = 3 * b; k < 3 * e; k += 3) {
+      const index_t a = t[k], bb = t[k + 1], c = t[k + 2];
+      std::vector<index_t>& out = isFinal(a, bb, c) ? fin[w] : open[w];
+      out.insert(out.end(), {a, bb, c});
+    }
+  });
+  for (unsigned w = 0; w < workers; ++w) {
+    final_out.insert(final_out.end(), fin[w].begin(), fin[w].end());
+    open_out.insert(open_out.end(), open[w].begin(), open[w].end());
   }
 }
 

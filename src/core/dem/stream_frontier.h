@@ -31,10 +31,11 @@ struct Hull {
 /// hull) is given, lie in it: a disk that crosses the seam is still final when it misses the part of
 /// the hull below the seam (the long thin triangles along a straight tile edge have huge circles that
 /// bulge out of the hull). Conservative: a doubtful triangle is open, which only delays it.
-/// seam = -HUGE_VAL: nothing is to come, every triangle is final.
+/// seam = -HUGE_VAL: nothing is to come, every triangle is final. Both outputs keep the input order,
+/// for any `threads` (0: all cores).
 void splitFinalTriangles(const double* x, const double* y, const index_t* triangles, std::size_t num_indices,
                          double seam, const Hull* hull, std::vector<index_t>& final_out,
-                         std::vector<index_t>& open_out);
+                         std::vector<index_t>& open_out, unsigned threads = 1);
 
 /// Whether a point still to come (y < seam, inside `hull` when given) may lie in the closed half-plane
 /// right of the directed line a -> b: the outside of a hull edge whose interior is on its left. False

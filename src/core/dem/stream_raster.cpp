@@ -12,8 +12,8 @@ namespace dem {
 namespace detail {
 
 StreamRaster::StreamRaster(const RasterGrid& grid, const Hull& hull, double max_edge, double nodata,
-                           RowSink sink)
-    : grid_(grid), hull_(hull), max_edge_(max_edge), nodata_(nodata), sink_(std::move(sink)) {}
+                           RowSink sink, unsigned threads)
+    : grid_(grid), hull_(hull), max_edge_(max_edge), nodata_(nodata), sink_(std::move(sink)), threads_(threads) {}
 
 void StreamRaster::hold(std::size_t rows) {
   rows = std::min(rows, grid_.rows - next_);
@@ -33,7 +33,7 @@ void StreamRaster::add(const StripPoints& p, const std::vector<index_t>& t) {
   hold(last - next_);
   const TinRasterStats s =
       rasterizeOwnedCells(p.x.data(), p.y.data(), p.value.data(), p.size(), t.data(), t.size(), grid_, next_,
-                          next_ + held_, values_.data(), owned_.data(), max_edge_);
+                          next_ + held_, values_.data(), owned_.data(), max_edge_, threads_);
   stats_.cells_set += s.cells_set;
   stats_.triangles_killed += s.triangles_killed;
 }

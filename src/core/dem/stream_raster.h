@@ -24,7 +24,9 @@ using RowSink = std::function<void(std::size_t row_begin, std::size_t rows, cons
 class StreamRaster {
  public:
   /// `grid` in the points' frame; `hull` the whole cloud's hull (must outlive this).
-  StreamRaster(const RasterGrid& grid, const Hull& hull, double max_edge, double nodata, RowSink sink);
+  /// `threads`: for rasterising each batch of final triangles (0: all cores).
+  StreamRaster(const RasterGrid& grid, const Hull& hull, double max_edge, double nodata, RowSink sink,
+               unsigned threads = 1);
 
   /// Rasterises final triangles (indices into `points`).
   void add(const StripPoints& points, const std::vector<index_t>& triangles);
@@ -41,6 +43,7 @@ class StreamRaster {
   const Hull& hull_;
   double max_edge_, nodata_;
   RowSink sink_;
+  unsigned threads_;
   std::size_t next_ = 0, held_ = 0;  // rows [next_, next_ + held_) are in the buffers
   std::vector<double> values_;
   std::vector<unsigned char> owned_;

@@ -178,27 +178,39 @@ TinRasterStats rasterizeTinRows(const double* x, const double* y, const double* 
 TinRasterStats rasterizeOwnedCells(const double* x, const double* y, const double* value, std::size_t n,
                                    const index_t* triangles, std::size_t num_indices, const RasterGrid& grid,
                                    std::size_t row_begin, std::size_t row_end, double* out,
-                                   unsigned char* owned, double max_edge) {
-  TinRasterStats s;
-  if (row_begin >= row_end) return s;
+                                   unsigned char* owned, double max_edge, unsigned threads) {
+  TinRasterStats total;
+  if (row_begin >= row_end) return total;
   const double max_edge2 = max_edge > 0 ? max_edge * max_edge : HUGE_VAL;
-  for (std::size_t k = 0; k + 2 < num_indices; k += 3) {
-    const index_t* v = triangles + k;
-    if (v[0] >= n || v[1] >= n || v[2] >= n) throw Error("rasterizeOwnedCells: vertex index out of range");
-    const CanonicalTriangle c = canonicalTriangle(v, x, y, max_edge2);
-    const Corner* t = c.t;
-    const bool killed = c.killed;
-    const index_t* i = c.i;
-    if (pred::orient2d(t[0].x, t[0].y, t[1].x, t[1].y, t[2].x, t[2].y) <= 0) continue;
-    const double val[3] = {value[i[0]], value[i[1]], value[i[2]]};
-    const std::size_t set =
-        rasterizeTriangle(t, killed ? nullptr : val, grid, row_begin, row_end, out, owned);
-    if (killed)
-      ++s.triangles_killed;
-    else
-      s.cells_set += set;
+  const std::size_t num_tri = num_indices / 3;
+  // Every cell has one owner among triangles of one triangulation, so blocks of triangles write
+  // disjoint cells and need no locks; the values do not depend on the split.
+  const unsigned workers = workerCount(num_tri, threads, 16384);
+  std::vector<TinRasterStats> per(workers);
+  parallelFor(num_tri, workers, [&](std::size_t b, std::size_t e, unsigned w) {
+    TinRasterStats& s = per[w];
+    for (std::size_t k = 3 * b; k < 3 * e; k += 3) {
+      const index_t* v = triangles + k;
+      if (v[0] >= n || v[1] >= n || v[2] >= n) throw Error("rasterizeOwnedCells: vertex index out of range");
+      const CanonicalTriangle c = canonicalTriangle(v, x, y, max_edge2);
+      const Corner* t = c.t;
+      const bool killed = c.killed;
+      const index_t* i = c.i;
+      if (pred::orient2d(t[0].x, t[0].y, t[1].x, t[1].y, t[2].x, t[2].y) <= 0) continue;
+      const double val[3] = {value[i[0]], value[i[1]], value[i[2]]};
+      const std::size_t set =
+          rasterizeTriangle(t, killed ? nullptr : val, grid, row_begin, row_end, out, owned);
+      if (killed)
+        ++s.triangles_killed;
+      else
+        s.cells_set += set;
+    }
+  });
+  for (const auto& s : per) {
+    total.cells_set += s.cells_set;
+    total.triangles_killed += s.triangles_killed;
   }
-  return s;
+  return total;
 }
 
 std::vector<double> rasterizeTin(const double* x, const double* y, const double* value, std::size_t n,

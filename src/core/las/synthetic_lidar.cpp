@@ -31,8 +31,9 @@ double terrain(double x, double y) {
 
 class Scene {
  public:
-  Scene(double w, double l, std::uint64_t seed)
-      : nx_(std::size_t(w / kCell) + 1), ny_(std::size_t(l / kCell) + 1) {
+  /// Objects of the tile whose south-west corner is (tx, ty) in the survey's frame; coordinates local.
+  Scene(double w, double l, std::uint64_t seed, double tx, double ty)
+      : nx_(std::size_t(w / kCell) + 1), ny_(std::size_t(l / kCell) + 1), tx_(tx), ty_(ty) {
     buildings_.resize(nx_ * ny_);
     trees_.resize(nx_ * ny_);
     std::mt19937_64 rng(seed * 7919 + 17);
@@ -51,7 +52,7 @@ class Scene {
           const double a = u(rng) * 3.14159265;
           b.cos_a = std::cos(a);
           b.sin_a = std::sin(a);
-          b.base = terrain(b.cx, b.cy);
+          b.base = terrain(tx + b.cx, ty + b.cy);
           b.eaves = b.base + 4 + 20 * u(rng);
           b.ridge = u(rng) < 0.5 ? b.eaves : b.eaves + 2 + 4 * u(rng);
           buildings_[j * nx_ + i].push_back(b);
@@ -63,7 +64,7 @@ class Scene {
           tr.cx = x0 + kCell * u(rng);
           tr.cy = y0 + kCell * u(rng);
           tr.r = 1.5 + 4 * u(rng);
-          tr.base = terrain(tr.cx, tr.cy);
+          tr.base = terrain(tx + tr.cx, ty + tr.cy);
           tr.top = tr.base + 5 + 20 * u(rng);
           trees_[j * nx_ + i].push_back(tr);
         }
@@ -73,7 +74,7 @@ class Scene {
   /// Heights hit by a vertical pulse at (x, y): the first surface and whether it is a building or a
   /// crown (crowns let part of the pulse through to the ground).
   void probe(double x, double y, double* first, int* cls, double* crown_depth) const {
-    const double g = terrain(x, y);
+    const double g = terrain(tx_ + x, ty_ + y);
     *first = g;
     *cls = 2;
     *crown_depth = 0;
@@ -106,6 +107,7 @@ class Scene {
 
  private:
   std::size_t nx_, ny_;
+  double tx_, ty_;
   std::vector<std::vector<Building>> buildings_;
   std::vector<std::vector<Tree>> trees_;
 };
@@ -136,8 +138,12 @@ void generateLidar(const LidarGenOptions& o, const std::function<void(const LasR
   // (flights run along y), so the TIN's strips cut across the flight lines.
   const double area = double(o.num_points) / (o.density * 1.15);
   const double width = std::max(10.0, std::sqrt(area / 2.0)), length = 2.0 * width;
-  const Scene scene(width, length, o.seed);
-  std::mt19937_64 rng(o.seed);
+  // Tile (c, r): its own objects and pulses, terrain and coordinates in the survey's frame.
+  const std::uint64_t seed =
+      o.seed + 0x9E3779B97F4A7C15ull * ((std::uint64_t(o.tile_row) << 32) | std::uint64_t(o.tile_col));
+  const double tx = double(o.tile_col) * width, ty = double(o.tile_row) * length;
+  const Scene scene(width, length, seed, tx, ty);
+  std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> jitter(-0.15, 0.15), u01(0.0, 1.0);
   const double spacing = 1.0 / std::sqrt(o.density);  // across- and along-track pulse spacing
   const double swath = std::min(o.swath, width);
@@ -167,8 +173,8 @@ void generateLidar(const LidarGenOptions& o, const std::function<void(const LasR
         gps += 1e-5;
         const bool second = cls == 5 && u01(rng) < 0.6;  // part of a crown pulse reaches the ground
         const int n_ret = second ? 2 : 1;
-        r.X = quantise(o.offset_x + x, o.offset_x, o.scale);
-        r.Y = quantise(o.offset_y + y, o.offset_y, o.scale);
+        r.X = quantise(o.offset_x + tx + x, o.offset_x, o.scale);
+        r.Y = quantise(o.offset_y + ty + y, o.offset_y, o.scale);
         r.Z = quantise(first + jitter(rng) * 0.1, o.offset_z, o.scale);
         r.classification = std::uint8_t(cls);
         r.return_number = 1;
@@ -180,7 +186,7 @@ void generateLidar(const LidarGenOptions& o, const std::function<void(const LasR
         emit(r);
         ++emitted;
         if (second && emitted < o.num_points) {
-          r.Z = quantise(terrain(x, y) + jitter(rng) * 0.1, o.offset_z, o.scale);
+          r.Z = quantise(terrain(tx + x, ty + y) + jitter(rng) * 0.1, o.offset_z, o.scale);
           r.classification = 2;
           r.return_number = 2;
           emit(r);

@@ -21,6 +21,12 @@ struct LidarGenOptions {
   double scale = 0.01;                 ///< LAS scale (x, y, z)
   double offset_x = 500000.0, offset_y = 6000000.0, offset_z = 0.0;
   std::uint64_t seed = 1;
+  /// This tile's column and row in a survey of equal tiles (the same options but the tile): tile (c, r)
+  /// covers [c W, (c + 1) W] x [r L, (r + 1) L] of the survey's frame, W x L the area `num_points`
+  /// needs, with the same scale and offsets, so the tiles are one cloud (dw_dem, dw_tin). The terrain
+  /// is continuous across tiles; buildings and trees are drawn per tile (cut at its edges), and tile
+  /// (0, 0) is the single tile the same options give without tiling.
+  std::uint32_t tile_col = 0, tile_row = 0;
 };
 
 /// The LAS header (1.2, format 1; 1.4, format 6 beyond 2^32 points) matching the generated records.
