@@ -14,7 +14,9 @@
 #   usage: tools/device/dem_scale.sh [POINTS]     (default 1000M; suffixes k, M, G)
 #   environment: DEM_SCALE_TILE (20M), DEM_SCALE_INMEM (100M; 0: skip 1 and 2), DEM_SCALE_THREADS (nproc),
 #     DEM_SCALE_MEMORY_MB (6144), DEM_SCALE_DIR (/tmp/dw-dem-scale), DW_DEVICE_BUILD (/tmp/dw-build-dem),
-#     DW_DEVICE_PREBUILT=1: use the binaries already in DW_DEVICE_BUILD (no configure, no build).
+#     DW_DEVICE_PREBUILT=1: use the binaries already in DW_DEVICE_BUILD (no configure, no build),
+#     DEM_SCALE_STAGE: all (default), gen (build, test and generate, keep the tiles, stop) or dem (the DEM
+#     runs on the tiles an earlier gen call left): two calls of the device's per-command limit each.
 set -uo pipefail
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 OUT=${OUT:-$ROOT/out}
@@ -47,8 +49,10 @@ COLS=$(python3 -c "import math; t = $TILES; r = min((d for d in range(1, t + 1) 
 INMEM_TILES=$((INMEM / TILE))
 ((INMEM_TILES > TILES)) && INMEM_TILES=$TILES
 
+STAGE=${DEM_SCALE_STAGE:-all}
+case $STAGE in all | gen | dem) ;; *) echo "bad DEM_SCALE_STAGE '$STAGE'" >&2; exit 2 ;; esac
 cleanup() { rm -rf "$DIR"; }
-trap cleanup EXIT
+[[ $STAGE == gen ]] || trap cleanup EXIT
 
 . "$ROOT/tools/device/cpu_build.sh"
 device_machine_info "$OUT/dem_scale_machine.txt" > /dev/null
@@ -56,20 +60,23 @@ cat "$OUT/dem_scale_machine.txt" >> "$S"
 say "== $N points: $TILES tiles of $TILE points, $COLS tile columns; $THREADS threads, memory limit $MEM MB"
 # Disk: 20 bytes a point for the tiles, 20 for the spill files (kept points), plus the rasters.
 need_kb=$((N / 1024 * 42))
+[[ $STAGE == dem ]] && need_kb=$((N / 1024 * 22))  # the tiles are there already
 free_kb=$(df -Pk "$DIR" | awk 'NR == 2 { print $4 }')
 say "disk: needs about $((need_kb / 1024)) MiB in $DIR, $((free_kb / 1024)) MiB free"
 ((need_kb < free_kb)) || { say "not enough disk for $N points: run fewer"; exit 1; }
 
 t=$(date +%s.%N)
-if [[ ${DW_DEVICE_PREBUILT:-0} != 1 ]]; then
+if [[ ${DW_DEVICE_PREBUILT:-0} != 1 && $STAGE != dem ]]; then
   echo "building dw_lidar_gen dw_dem_scale test_core_dem in $BUILD ..."
   device_cpu_build "$ROOT" "$BUILD" demscale dw_lidar_gen dw_dem_scale test_core_dem || exit 1
 fi
 say "build: $(python3 -c "import time; print(f'{time.time() - $t:.1f}')") s"
 G="$BUILD/apps/dw_lidar_gen"
 D="$BUILD/bench/dw_dem_scale"
-timeout 120 "$BUILD/test/test_core_dem" > "$OUT/dem_scale_tests.log" 2>&1
-say "test_core_dem exit $? ($(grep -c '^\[       OK' "$OUT/dem_scale_tests.log") ok, $(grep -c '^\[  FAILED' "$OUT/dem_scale_tests.log") failed lines)"
+if [[ $STAGE != dem ]]; then
+  timeout 120 "$BUILD/test/test_core_dem" > "$OUT/dem_scale_tests.log" 2>&1
+  say "test_core_dem exit $? ($(grep -c '^\[       OK' "$OUT/dem_scale_tests.log") ok, $(grep -c '^\[  FAILED' "$OUT/dem_scale_tests.log") failed lines)"
+fi
 
 TIMEV=()
 [[ -x /usr/bin/time ]] && TIMEV=(/usr/bin/time -v)
@@ -89,14 +96,17 @@ run_dem() {
   return $rc
 }
 
-echo "generating $TILES tiles in $DIR ..."
-t=$(date +%s.%N)
-seq 0 $((TILES - 1)) | xargs -P "$(nproc)" -I{} bash -c \
-  'i={}; "$0" -n "$1" --format 0 --tile $((i % $2)) $((i / $2)) -o "$3/tile_$(printf %05d $i).las" 2> /dev/null ||
-   { echo "tile $i failed"; exit 255; }' "$G" "$TILE" "$COLS" "$DIR" || { say "generation failed"; exit 1; }
-gen_s=$(python3 -c "import time; print(f'{time.time() - $t:.1f}')")
-bytes=$(du -sb "$DIR" | cut -f1)
-say "generation: $N points in $gen_s s ($(python3 -c "print(f'{$N / $gen_s / 1e6:.1f}')") M points/s), $((bytes / 1048576)) MiB of LAS"
+if [[ $STAGE != dem ]]; then
+  echo "generating $TILES tiles in $DIR ..."
+  t=$(date +%s.%N)
+  seq 0 $((TILES - 1)) | xargs -P "$(nproc)" -I{} bash -c \
+    'i={}; "$0" -n "$1" --format 0 --tile $((i % $2)) $((i / $2)) -o "$3/tile_$(printf %05d $i).las" 2> /dev/null ||
+     { echo "tile $i failed"; exit 255; }' "$G" "$TILE" "$COLS" "$DIR" || { say "generation failed"; exit 1; }
+  gen_s=$(python3 -c "import time; print(f'{time.time() - $t:.1f}')")
+  bytes=$(du -sb "$DIR" | cut -f1)
+  say "generation: $N points in $gen_s s ($(python3 -c "print(f'{$N / $gen_s / 1e6:.1f}')") M points/s), $((bytes / 1048576)) MiB of LAS"
+fi
+[[ $STAGE == gen ]] && { say "tiles kept in $DIR for DEM_SCALE_STAGE=dem"; exit 0; }
 mapfile -t ALL < <(ls "$DIR"/tile_*.las)
 rc=0
 if ((INMEM_TILES > 0)); then

@@ -141,6 +141,10 @@ class Triangulation3D {
   void remove(index_t v);
   /// Vertices removed since construction.
   std::size_t numRemoved() const { return num_removed_; }
+  /// A live tetrahedron holding vertex v (a root of its star): the one kept per vertex when it is
+  /// still valid, else the end of a walk to v from `hint` (any tetrahedron slot; an invalid one
+  /// starts where the last insertion or removal ended). Throws dw::Error when v is not present.
+  index_t tetOf(index_t v, index_t hint = kNoTet);
 
   /// Checks the whole structure (TetraMesh::validate's adjacency and counts, then the orientation of
   /// every tetrahedron and the local Delaunay property of every face under the same perturbation).

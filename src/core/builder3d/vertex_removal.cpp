@@ -320,6 +320,21 @@ index_t Triangulation3D::starRoot(index_t v) {
   throw Error(std::string(kWhere) + vertexName(v) + " is not in the triangulation");
 }
 
+index_t Triangulation3D::tetOf(index_t v, index_t hint) {
+  if (!built()) throw Error("dw::Triangulation3D::tetOf: build() first");
+  if (v >= num_points_) throw Error("dw::Triangulation3D::tetOf: " + vertexName(v) + " is out of range");
+  const std::size_t nt_slots = mesh_.slots();
+  const index_t kept = v < vertex_tet_.size() ? vertex_tet_[v] : kNoVertexTet;
+  index_t t = kept;
+  if (!(kept < nt_slots && !mesh_.isDead(kept) && hasVertex(mesh_.vertices(kept), v))) {
+    if (hint < nt_slots && !mesh_.isDead(hint)) last_tet_ = hint;
+    t = starRoot(v);
+    if (v < vertex_tet_.size()) vertex_tet_[v] = t;  // the next lookup of v needs no walk
+  }
+  last_tet_ = t;  // a removal of v that follows finds its star at once
+  return t;
+}
+
 void Triangulation3D::remove(index_t v) {
   if (!built()) throw Error(std::string(kWhere) + "build() first");
   if (v >= num_points_) throw Error(std::string(kWhere) + vertexName(v) + " is out of range");

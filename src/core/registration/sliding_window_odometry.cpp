@@ -63,7 +63,9 @@ FrameResult SlidingWindowOdometry::registerScan(const PointView& scan) {
     return finish(FrameStatus::Ok);
   }
   const auto tg = Clock::now();
-  auto graph = std::make_shared<const DelaunayGraph>(map_.graph(nullptr, 1));
+  // Kept up to date by the map: only the points whose Delaunay star the last update changed are
+  // re-read, then the graph is laid out again.
+  DelaunayGraph::ConstPtr graph = map_.walkGraph();
   std::vector<float> xyz(3 * graph->numInputPoints());
   // The map's origin is 0, so a vertex's local float position is its caller coordinate.
   for (std::size_t i = 0; i < graph->numInputPoints(); ++i) {

@@ -134,10 +134,12 @@ bool CallerMetricSearch::locate(const float q[3], dw::StartStrategy strategy, dw
   // The answer's caller-side record (vertex_) is read right after the walk, and with queries in no
   // spatial order it is a cache miss that the walk cannot hide (most of nearest()'s own time in a
   // profile). The walk mostly ends at or next to its start, so loading the start's record now
-  // overlaps that miss with the walk.
+  // overlaps that miss with the walk; each vertex the walk moves to gets its record loaded the same way
+  // while its neighbourhood is scanned.
   const dw::index_t start = search_->startVertex(ql, strategy, hint);
   if (start < vertex_.size()) __builtin_prefetch(&vertex_[start]);
-  nn = dw::walk(search_->graph(), ql, start);
+  const VertexRecord* const records = vertex_.data();
+  nn = dw::walk(search_->graph(), ql, start, [records](dw::index_t j) { __builtin_prefetch(records + j); });
   if (nn.vertex == dw::kInvalidIndex) return false;
   if (stats) {
     stats->nn_vertex = nn.vertex;

@@ -78,6 +78,20 @@ class DynamicDelaunayGraph {
   /// buildDelaunayGraph while the points do not span 3D.
   DelaunayGraph graph(std::vector<PointId>* input_ids = nullptr, unsigned num_threads = 1) const;
 
+  /// The walk graph of the live points, kept up to date across insert() and remove(): each
+  /// neighbourhood is kept per point, and only the points whose Delaunay star changed since the last
+  /// call are re-read from the triangulation (their star alone); the graph is then laid out from the
+  /// kept neighbourhoods, O(live points + edges) copying and no pass over the tetrahedra. Vertex v
+  /// and input v are the live point in the v-th smallest slot; `input_ids` (when given) receives
+  /// their ids in that order. As a graph over point ids it equals graph(): the same neighbours, the
+  /// same edge records (only vertex numbers differ). While the points do not span 3D it is graph().
+  /// The returned graph does not change afterwards; while the caller holds it, the next call lays
+  /// out a new one, otherwise it reuses its storage.
+  DelaunayGraph::ConstPtr walkGraph(std::vector<PointId>* input_ids = nullptr);
+  /// Points whose neighbourhood the last walkGraph() re-read (all live points on the first call and
+  /// after the triangulation was rebuilt).
+  std::size_t lastRefreshed() const { return last_refreshed_; }
+
   /// Checks the triangulation (Triangulation3D::validate) and the id bookkeeping; throws dw::Error.
   void validate() const;
 
@@ -96,6 +110,17 @@ class DynamicDelaunayGraph {
   static PositionKey keyOf(const Vec3f& p);
   std::vector<index_t> liveSlots() const;
   void rebuildIfSpans3D();
+  // The finite vertices adjacent to slot s (each once) into link_, given a tetrahedron holding s.
+  void collectLink(index_t s, index_t root);
+  // Marks s and (when `neighbours`) every vertex adjacent to it as needing its neighbourhood re-read.
+  void markDirty(index_t s, bool neighbours);
+  // Re-reads the neighbourhoods of the dirty slots (all live ones after a rebuild): star by star, or
+  // for many of them in one pass over the tetrahedra (refreshByScan).
+  void refreshDirty();
+  void refreshByScan();
+  // Writes slot s's edge records from link_ (its distinct neighbours).
+  void recordNeighbourhood(index_t s);
+  void layOutWalkGraph(DelaunayGraph& g, std::vector<PointId>* input_ids);
 
   std::array<double, 3> origin_{{0.0, 0.0, 0.0}};
   bool have_origin_ = false;
@@ -107,6 +132,23 @@ class DynamicDelaunayGraph {
   PointId next_id_ = 0;
   std::unique_ptr<builder3d::Triangulation3D> kernel_;  // null only in a moved-from graph
   bool triangulated_ = false;
+
+  // walkGraph()'s state. Per slot: the neighbourhood as edge records whose j is the neighbour's
+  // slot, in (m, slot) order; renumbering the live slots in ascending order keeps that order, so the
+  // laid-out graph has the documented (m, j) order without sorting.
+  std::vector<std::vector<EdgeRecord>> neighbourhood_;
+  std::vector<std::uint8_t> dirty_;   // per slot
+  std::vector<index_t> dirty_list_;   // the slots with dirty_ set (some may have died since)
+  bool all_dirty_ = true;             // the triangulation was (re)built: re-read every point
+  std::size_t last_refreshed_ = 0;
+  std::vector<std::uint32_t> tet_seen_, slot_seen_;  // per tetrahedron / slot: stamp of the last visit
+  std::uint32_t stamp_ = 0;
+  std::vector<index_t> star_, link_;  // collectLink's scratch and result
+  std::vector<std::size_t> scan_start_, scan_fill_;  // refreshByScan's buckets, per slot
+  std::vector<index_t> scan_bucket_;
+  std::vector<std::uint64_t> record_keys_;  // recordNeighbourhood's sort keys
+  std::shared_ptr<DelaunayGraph> walk_graph_;
+  std::vector<index_t> vertex_of_slot_;
 };
 
 }  // namespace dw

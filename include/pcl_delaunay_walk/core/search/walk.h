@@ -34,7 +34,12 @@ inline double squaredDistanceD(const Vec3f& a, const Vec3f& b) {
 /// taken only if it strictly lowers the double distance, so the walk always terminates. Before scanning, a
 /// query inside the vertex's safe ball (DelaunayGraph::safe_radius2) ends the walk at once: near convergence
 /// most ICP queries lie next to their previous nearest vertex.
-inline WalkResult walk(const DelaunayGraph& g, const Vec3f& q, index_t start) {
+///
+/// `on_move(j)` is called each time the walk moves to vertex j, before j's neighbourhood is scanned: a
+/// caller that reads its own record of the answer vertex afterwards can start loading it there, so the
+/// load overlaps the rest of the walk (CallerMetricSearch does).
+template <class OnMove>
+inline WalkResult walk(const DelaunayGraph& g, const Vec3f& q, index_t start, OnMove&& on_move) {
   WalkResult r;
   if (g.points.empty()) return r;
   index_t i = start < g.points.size() ? start : 0;
@@ -71,6 +76,7 @@ inline WalkResult walk(const DelaunayGraph& g, const Vec3f& q, index_t start) {
       }
     }
     if (next == kInvalidIndex) break;
+    on_move(next);
     i = next;
     u = q - g.points[i];
     d2 = next_d2;
@@ -79,6 +85,10 @@ inline WalkResult walk(const DelaunayGraph& g, const Vec3f& q, index_t start) {
   r.vertex = i;
   r.dist2 = static_cast<float>(d2);
   return r;
+}
+
+inline WalkResult walk(const DelaunayGraph& g, const Vec3f& q, index_t start) {
+  return walk(g, q, start, [](index_t) {});
 }
 
 }  // namespace dw
