@@ -133,6 +133,8 @@ Result runStream(const Arguments& a) {
   std::printf("strips %zu (largest %zu points)  resident at most %zu points  rows held at most %zu\n", st.strips,
               st.max_strip_points, st.max_resident, st.max_rows_held);
   std::printf("scan %.3f s  spill %.3f s  strips %.3f s\n", st.scan_s, st.spill_s, st.strips_s);
+  std::printf("strips: read %.3f  merge %.3f  tin %.3f  classify %.3f  raster %.3f  frontier %.3f  flush %.3f s\n",
+              st.read_s, st.merge_s, st.tin_s, st.classify_s, st.emit_s, st.frontier_s, st.flush_s);
   return {st.points, dem.grid(), st.raster.cells_set};
 }
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <unistd.h>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -40,13 +41,22 @@ constexpr std::size_t kMaxStrips = 512;  // one open spill file each
 /// intensity), from which the frame coordinates and the value are recomputed bit for bit.
 constexpr std::size_t kSpillBytes = 20;
 
-struct Spill {
+/// One spill file: the points one pass-2 worker sent to one strip, in the order it read them.
+struct SpillFile {
   std::FILE* f = nullptr;
   std::uint64_t count = 0;
   std::vector<char> buffer;  // stdio's buffer: large writes, not one per 4 KB
-  ~Spill() {
+  ~SpillFile() {
     if (f) std::fclose(f);
   }
+};
+
+/// The points of one input in one strip: `count` records from record `offset` of worker `worker`'s
+/// spill file. Inputs are read whole by one worker and in order, so a run's global indices ascend and
+/// a strip's runs in input order give its points in ascending index.
+struct SpillRun {
+  std::size_t input, worker;
+  std::uint64_t offset, count;
 };
 
 /// The convex hull of points added one by one: hull(points so far) = hull(hull of the earlier ones u
@@ -115,6 +125,7 @@ struct StreamDem::Impl {
   double k = 1;  // frame: world = frame * k + offset (LAS integers when the x and y scales agree)
   bool same_scale = true;
   std::uint64_t total_records = 0, kept = 0;
+  std::vector<std::uint64_t> kept_of;  // kept points of each input (pass 1)
   double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
   double hist_lo = 0, hist_hi = 0;
   std::vector<std::uint64_t> hist;
@@ -159,20 +170,6 @@ struct StreamDem::Impl {
     }
   }
 
-  /// Every kept point of every input in order, as (index, x, y, v, world x, y, z).
-  template <class F>
-  void forEachPoint(const char* stage, F&& f) {
-    std::uint64_t index = 0, done = 0;
-    const auto t = Clock::now();
-    for (std::size_t i = 0; i < o.inputs.size(); ++i)
-      forEachPointOf(
-          i,
-          [&](std::int32_t x, std::int32_t y, std::int32_t v, double wx, double wy, double wz) {
-            f(index++, x, y, v, wx, wy, wz);
-          },
-          [&](std::size_t records) { report(stage, done += records, t); });
-  }
-
   void report(const char* stage, std::uint64_t done, Clock::time_point t) {
     if (!progress) return;
     StreamDemProgress p;
@@ -209,6 +206,7 @@ struct StreamDem::Impl {
     // The files in parallel, one at a time per worker, each worker with its own part.
     const unsigned workers = std::min<unsigned>(resolveThreads(o.threads), unsigned(o.inputs.size()));
     std::vector<ScanPart> parts(workers);
+    kept_of.assign(o.inputs.size(), 0);
     std::atomic<std::size_t> next_file{0};
     std::atomic<std::uint64_t> done{0};
     std::mutex report_mutex;
@@ -221,7 +219,7 @@ struct StreamDem::Impl {
             i,
             [&](std::int32_t x, std::int32_t y, std::int32_t, double wx, double wy, double) {
               const double fx = frameX(x), fy = frameY(y);
-              ++part.kept;
+              ++part.kept, ++kept_of[i];
               part.lo[0] = std::min(part.lo[0], wx), part.hi[0] = std::max(part.hi[0], wx);
               part.lo[1] = std::min(part.lo[1], wy), part.hi[1] = std::max(part.hi[1], wy);
               part.hist[bin(fy)]++;
@@ -293,6 +291,11 @@ struct StreamDem::Impl {
     }
   }
 
+  void spillAll(const StreamMeshSink* mesh, std::vector<std::vector<SpillFile>>& spill,
+                std::vector<std::vector<SpillRun>>& runs);
+  detail::StripPoints readStrip(std::size_t s, std::vector<std::vector<SpillFile>>& spill,
+                                std::vector<SpillRun>& runs) const;
+
   std::size_t stripOf(double fy) const {  // seams descending: the number of seams > fy
     return std::size_t(std::upper_bound(seams.begin(), seams.end(), fy, std::greater<double>()) -
                        seams.begin());
@@ -318,31 +321,127 @@ std::uint64_t StreamDem::points() const {
   return impl_->kept;
 }
 
+namespace {
+
+/// Workers of pass 2: one spill file per worker and strip stays open, within kMaxSpillFiles; one
+/// worker when the mesh sink needs the vertices in input order.
+constexpr std::size_t kMaxSpillFiles = 512;
+
+}  // namespace
+
+/// Pass 2: every kept point appended to its strip's spill file, the inputs read in parallel, one
+/// worker per input at a time. Leaves spill[worker][strip] and runs[strip].
+void StreamDem::Impl::spillAll(const StreamMeshSink* mesh, std::vector<std::vector<SpillFile>>& spill,
+                               std::vector<std::vector<SpillRun>>& runs) {
+  const std::size_t strips = seams.size() + 1;
+  const unsigned workers =
+      mesh ? 1u
+           : unsigned(std::max<std::size_t>(1, std::min<std::size_t>({resolveThreads(o.threads), o.inputs.size(),
+                                                                        kMaxSpillFiles / strips})));
+  // stdio buffers of an eighth of the memory limit together, 4 KB to 1 MB each.
+  const std::size_t buffer_bytes = std::min<std::size_t>(
+      1 << 20, std::max<std::size_t>(4096, o.memory_limit_mb * 131072 / (strips * workers)));
+  spill.assign(workers, std::vector<SpillFile>(strips));
+  for (auto& of_worker : spill)
+    for (SpillFile& f : of_worker) {
+      f.f = std::tmpfile();  // unlinked: gone however the run ends
+      if (!f.f) throw Error("dw::dem::StreamDem: cannot create a spill file in the temporary folder");
+      f.buffer.resize(buffer_bytes);
+      std::setvbuf(f.f, f.buffer.data(), _IOFBF, f.buffer.size());
+    }
+  std::vector<std::uint64_t> first_index(o.inputs.size(), 0);
+  for (std::size_t i = 1; i < o.inputs.size(); ++i) first_index[i] = first_index[i - 1] + kept_of[i - 1];
+  runs.assign(strips, {});
+  std::mutex mutex;  // runs and progress
+  std::atomic<std::size_t> next_input{0};
+  std::atomic<std::uint64_t> done{0};
+  const auto t = Clock::now();
+  parallelFor(workers, workers, [&](std::size_t, std::size_t, unsigned w) {
+    std::vector<std::uint64_t> in_strip(strips);
+    for (std::size_t i; (i = next_input++) < o.inputs.size();) {
+      std::uint64_t index = first_index[i];
+      std::fill(in_strip.begin(), in_strip.end(), 0);
+      forEachPointOf(
+          i,
+          [&](std::int32_t x, std::int32_t y, std::int32_t v, double wx, double wy, double wz) {
+            if (mesh) mesh->vertex(wx, wy, wz);
+            const std::size_t s = stripOf(frameY(y));
+            char r[kSpillBytes];
+            std::memcpy(r, &index, 8), std::memcpy(r + 8, &x, 4), std::memcpy(r + 12, &y, 4), std::memcpy(r + 16, &v, 4);
+            if (std::fwrite(r, kSpillBytes, 1, spill[w][s].f) != 1)
+              throw Error("dw::dem::StreamDem: cannot write a spill file (disk full?)");
+            ++index, ++in_strip[s];
+          },
+          [&](std::size_t records) {
+            const std::uint64_t d = done += records;
+            std::lock_guard<std::mutex> lock(mutex);
+            report("spill", d, t);
+          });
+      if (index - first_index[i] != kept_of[i])
+        throw Error(o.inputs[i] + ": its points changed between the two passes");
+      std::lock_guard<std::mutex> lock(mutex);
+      for (std::size_t s = 0; s < strips; ++s)
+        if (in_strip[s] > 0) {
+          runs[s].push_back({i, w, spill[w][s].count, in_strip[s]});
+          spill[w][s].count += in_strip[s];
+        }
+    }
+  });
+  for (auto& of_worker : spill)
+    for (SpillFile& f : of_worker)
+      if (std::fflush(f.f) != 0) throw Error("dw::dem::StreamDem: cannot write a spill file (disk full?)");
+}
+
+/// Strip s read back from its runs in input order, in pieces on all threads; its spill files closed.
+detail::StripPoints StreamDem::Impl::readStrip(std::size_t s, std::vector<std::vector<SpillFile>>& spill,
+                                               std::vector<SpillRun>& runs) const {
+  std::sort(runs.begin(), runs.end(), [](const SpillRun& a, const SpillRun& b) { return a.input < b.input; });
+  constexpr std::uint64_t kPiece = 1 << 16;
+  struct Piece {
+    const SpillRun* run;
+    std::uint64_t first, count, at;  // records [first, first + count) of the run, to position `at`
+  };
+  std::vector<Piece> pieces;
+  std::uint64_t total = 0;
+  for (const SpillRun& r : runs) {
+    for (std::uint64_t f = 0; f < r.count; f += kPiece) pieces.push_back({&r, f, std::min(kPiece, r.count - f), total + f});
+    total += r.count;
+  }
+  detail::StripPoints p;
+  p.x.resize(total), p.y.resize(total), p.value.resize(total), p.index.resize(total);
+  parallelForDynamic(pieces.size(), o.threads, [&](std::size_t k) {
+    const Piece& piece = pieces[k];
+    std::vector<char> buf(piece.count * kSpillBytes);
+    const int fd = fileno(spill[piece.run->worker][s].f);
+    const off_t from = off_t((piece.run->offset + piece.first) * kSpillBytes);
+    for (std::size_t got = 0; got < buf.size();) {
+      const ssize_t r = pread(fd, buf.data() + got, buf.size() - got, from + off_t(got));
+      if (r <= 0) throw Error("dw::dem::StreamDem: cannot read a spill file back");
+      got += std::size_t(r);
+    }
+    for (std::uint64_t i = 0; i < piece.count; ++i) {
+      const char* r = buf.data() + i * kSpillBytes;
+      const std::size_t to = piece.at + i;
+      std::int32_t x, y, v;
+      std::memcpy(&p.index[to], r, 8), std::memcpy(&x, r + 8, 4), std::memcpy(&y, r + 12, 4), std::memcpy(&v, r + 16, 4);
+      p.x[to] = frameX(x), p.y[to] = frameY(y), p.value[to] = valueOf(v);
+    }
+  });
+  for (auto& of_worker : spill) {
+    std::fclose(of_worker[s].f);
+    of_worker[s].f = nullptr;
+    std::vector<char>().swap(of_worker[s].buffer);
+  }
+  return p;
+}
+
 StreamDemStats StreamDem::run(const StreamRowSink& sink, const StreamMeshSink* mesh) {
   Impl& m = *impl_;
   const std::size_t strips = m.seams.size() + 1;
-  std::vector<Spill> spill(strips);
-  // stdio buffers of an eighth of the memory limit together, 4 KB to 1 MB each.
-  const std::size_t buffer_bytes =
-      std::min<std::size_t>(1 << 20, std::max<std::size_t>(4096, m.o.memory_limit_mb * 131072 / strips));
-  for (Spill& s : spill) {
-    s.f = std::tmpfile();  // unlinked: gone however the run ends
-    if (!s.f) throw Error("dw::dem::StreamDem: cannot create a spill file in the temporary folder");
-    s.buffer.resize(buffer_bytes);
-    std::setvbuf(s.f, s.buffer.data(), _IOFBF, s.buffer.size());
-  }
+  std::vector<std::vector<SpillFile>> spill;
+  std::vector<std::vector<SpillRun>> runs;
   const auto t_spill = Clock::now();
-  m.forEachPoint("spill", [&](std::uint64_t index, std::int32_t x, std::int32_t y, std::int32_t v, double wx,
-                              double wy, double wz) {
-    if (mesh) mesh->vertex(wx, wy, wz);
-    Spill& s = spill[m.stripOf(m.frameY(y))];
-    char r[kSpillBytes];
-    std::memcpy(r, &index, 8), std::memcpy(r + 8, &x, 4), std::memcpy(r + 12, &y, 4), std::memcpy(r + 16, &v, 4);
-    if (std::fwrite(r, kSpillBytes, 1, s.f) != 1) throw Error("dw::dem::StreamDem: cannot write a spill file");
-    ++s.count;
-  });
-  for (Spill& s : spill)
-    if (std::fflush(s.f) != 0) throw Error("dw::dem::StreamDem: cannot write a spill file");
+  m.spillAll(mesh, spill, runs);
   m.stats.spill_s = since(t_spill);
 
   const auto t_strips = Clock::now();
@@ -352,26 +451,11 @@ StreamDemStats StreamDem::run(const StreamRowSink& sink, const StreamMeshSink* m
                                                     m.o.threads);
   detail::StreamTin tin(&m.hull, m.o.threads);
   std::uint64_t done = 0;
-  std::vector<char> buf;
   std::vector<std::uint64_t> global;  // one strip's final triangles in global indices, for `mesh`
   for (std::size_t s = 0; s < strips; ++s) {
-    detail::StripPoints p;
-    const std::size_t count = spill[s].count;
-    buf.resize(count * kSpillBytes);
-    std::rewind(spill[s].f);
-    if (count > 0 && std::fread(buf.data(), kSpillBytes, count, spill[s].f) != count)
-      throw Error("dw::dem::StreamDem: cannot read a spill file back");
-    std::fclose(spill[s].f);
-    spill[s].f = nullptr;
-    std::vector<char>().swap(spill[s].buffer);
-    p.x.resize(count), p.y.resize(count), p.value.resize(count), p.index.resize(count);
-    for (std::size_t i = 0; i < count; ++i) {
-      const char* r = buf.data() + i * kSpillBytes;
-      std::int32_t x, y, v;
-      std::memcpy(&p.index[i], r, 8), std::memcpy(&x, r + 8, 4), std::memcpy(&y, r + 12, 4), std::memcpy(&v, r + 16, 4);
-      p.x[i] = m.frameX(x), p.y[i] = m.frameY(y), p.value[i] = m.valueOf(v);
-    }
-    std::vector<char>().swap(buf);
+    const auto t_read = Clock::now();
+    detail::StripPoints p = m.readStrip(s, spill, runs[s]);
+    m.stats.read_s += since(t_read);
     m.stats.max_strip_points = std::max(m.stats.max_strip_points, p.size());
     done += p.size();
     const double seam = s + 1 < strips ? m.seams[s] : -HUGE_VAL;
@@ -384,14 +468,19 @@ StreamDemStats StreamDem::run(const StreamRowSink& sink, const StreamMeshSink* m
       mesh->triangles(global.data(), t.size() / 3);
     });
     if (raster) {
+      const auto t_flush = Clock::now();
       m.stats.max_rows_held = std::max(m.stats.max_rows_held, raster->rowsHeld());
       raster->flush(s + 1 == strips);
+      m.stats.flush_s += since(t_flush);
     }
     m.stats.max_resident = std::max(m.stats.max_resident, tin.residentPoints());
     m.stats.strips = s + 1;
     m.report("strips", done, t_strips);
   }
   if (raster) m.stats.raster = raster->stats();
+  const detail::StreamTinTimes& tt = tin.times();
+  m.stats.merge_s = tt.merge_s, m.stats.tin_s = tt.tin_s, m.stats.classify_s = tt.classify_s;
+  m.stats.emit_s = tt.emit_s, m.stats.frontier_s = tt.frontier_s;
   m.stats.strips_s = since(t_strips);
   return m.stats;
 }

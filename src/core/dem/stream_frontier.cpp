@@ -3,6 +3,7 @@
 #include "core/dem/stream_frontier.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
 
@@ -53,28 +54,29 @@ double distanceTo(const Hull& h, double px, double py) {
 
 }  // namespace
 
+FinalTriangleTest::FinalTriangleTest(double seam, const Hull* hull)
+    : seam_(seam), hull_(hull), below_(hull ? clipBelow(*hull, seam) : Hull()), extent_(std::fabs(seam)) {
+  // Every later point lies in the global hull and has y < seam, so in below_.
+  for (std::size_t i = 0; i < below_.x.size(); ++i)
+    extent_ = std::max({extent_, std::fabs(below_.x[i]), std::fabs(below_.y[i])});
+}
+
+bool FinalTriangleTest::operator()(double ax, double ay, double bx, double by, double cx, double cy) const {
+  // seam = -inf: the last strip, no point is to come.
+  if (seam_ == -HUGE_VAL || tin::detail::circumdiskProvablyOnSide(ax, ay, bx, by, cx, cy, 1, seam_, false))
+    return true;
+  double ox, oy, r, margin;
+  if (!hull_ || !tin::detail::circumcircleWithMargin(ax, ay, bx, by, cx, cy, ox, oy, r, margin)) return false;
+  // The clip's new vertices and the distance are rounded too: a relative 1e-9 of the magnitudes
+  // covers them many times over.
+  const double slack = margin + 1e-9 * (extent_ + std::fabs(ox) + std::fabs(oy) + r);
+  return distanceTo(below_, ox, oy) > r + slack;
+}
+
 void splitFinalTriangles(const double* x, const double* y, const index_t* t, std::size_t num_indices,
                          double seam, const Hull* hull, std::vector<index_t>& final_out,
                          std::vector<index_t>& open_out, unsigned threads) {
-  // Every later point lies in the global hull and has y < seam, so in `below`.
-  const Hull below = hull ? clipBelow(*hull, seam) : Hull();
-  double extent = std::fabs(seam);
-  for (std::size_t i = 0; i < below.x.size(); ++i)
-    extent = std::max({extent, std::fabs(below.x[i]), std::fabs(below.y[i])});
-  auto isFinal = [&](index_t a, index_t b, index_t c) {
-    // seam = -inf: the last strip, no point is to come.
-    bool final = seam == -HUGE_VAL ||
-                 tin::detail::circumdiskProvablyOnSide(x[a], y[a], x[b], y[b], x[c], y[c], 1, seam, false);
-    double ox, oy, r, margin;
-    if (!final && hull &&
-        tin::detail::circumcircleWithMargin(x[a], y[a], x[b], y[b], x[c], y[c], ox, oy, r, margin)) {
-      // The clip's new vertices and the distance are rounded too: a relative 1e-9 of the magnitudes
-      // covers them many times over.
-      const double slack = margin + 1e-9 * (extent + std::fabs(ox) + std::fabs(oy) + r);
-      final = distanceTo(below, ox, oy) > r + slack;
-    }
-    return final;
-  };
+  const FinalTriangleTest isFinal(seam, hull);
   // Blocks of triangles, appended in block order: the output does not depend on the thread count.
   const std::size_t num_tri = num_indices / 3;
   const unsigned workers = workerCount(num_tri, threads, 16384);
@@ -82,7 +84,7 @@ void splitFinalTriangles(const double* x, const double* y, const index_t* t, std
   parallelFor(num_tri, workers, [&](std::size_t b, std::size_t e, unsigned w) {
     for (std::size_t k = 3 * b; k < 3 * e; k += 3) {
       const index_t a = t[k], bb = t[k + 1], c = t[k + 2];
-      std::vector<index_t>& out = isFinal(a, bb, c) ? fin[w] : open[w];
+      std::vector<index_t>& out = isFinal(x[a], y[a], x[bb], y[bb], x[c], y[c]) ? fin[w] : open[w];
       out.insert(out.end(), {a, bb, c});
     }
   });
@@ -134,6 +136,81 @@ Hull convexHull(const double* x, const double* y, std::size_t n) {
     out.x.push_back(x[h[i]]);
     out.y.push_back(y[h[i]]);
   }
+  return out;
+}
+
+namespace {
+
+/// The extreme points in eight directions, counter-clockwise without repeats: a convex polygon inside
+/// the hull.
+Hull extremeOctagon(const double* x, const double* y, std::size_t n, unsigned threads) {
+  const unsigned workers = workerCount(n, threads, 1 << 16);
+  std::vector<std::array<std::size_t, 8>> best(workers);
+  auto dot = [&](std::size_t i, int d) {
+    const double c = std::cos(d * 0.7853981633974483), s = std::sin(d * 0.7853981633974483);
+    return x[i] * c + y[i] * s;
+  };
+  parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned w) {
+    best[w].fill(b);
+    for (std::size_t i = b; i < e; ++i)
+      for (int d = 0; d < 8; ++d)
+        if (dot(i, d) > dot(best[w][d], d)) best[w][d] = i;
+  });
+  Hull out;
+  for (int d = 0; d < 8; ++d) {
+    std::size_t top = best[0][d];
+    for (unsigned w = 1; w < workers; ++w)
+      if (dot(best[w][d], d) > dot(top, d)) top = best[w][d];
+    if (out.x.empty() || out.x.back() != x[top] || out.y.back() != y[top]) out.x.push_back(x[top]), out.y.push_back(y[top]);
+  }
+  while (out.x.size() > 1 && out.x.back() == out.x.front() && out.y.back() == out.y.front())
+    out.x.pop_back(), out.y.pop_back();
+  return out;
+}
+
+/// Whether (px, py) is inside convex polygon h by a margin far above rounding (then it is no point of
+/// the hull's boundary).
+bool deepInside(const Hull& h, double px, double py) {
+  const std::size_t m = h.x.size();
+  if (m < 3) return false;
+  for (std::size_t i = 0; i < m; ++i) {
+    const std::size_t j = (i + 1) % m;
+    const double ex = h.x[j] - h.x[i], ey = h.y[j] - h.y[i], wx = px - h.x[i], wy = py - h.y[i];
+    const double slack =
+        1e-9 * (std::fabs(ex) + std::fabs(ey)) * (std::fabs(h.x[i]) + std::fabs(h.y[i]) + std::fabs(px) + std::fabs(py) + 1.0);
+    if (!(ex * wy - ey * wx > slack)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::vector<index_t> hullBoundaryPoints(const double* x, const double* y, std::size_t n, unsigned threads) {
+  const Hull core = extremeOctagon(x, y, n, threads);
+  const unsigned workers = workerCount(n, threads, 1 << 16);
+  std::vector<std::vector<index_t>> near(workers);
+  parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned w) {
+    for (std::size_t i = b; i < e; ++i)
+      if (!deepInside(core, x[i], y[i])) near[w].push_back(index_t(i));
+  });
+  std::vector<index_t> order;
+  for (const auto& v : near) order.insert(order.end(), v.begin(), v.end());
+  std::sort(order.begin(), order.end(),
+            [&](index_t a, index_t b) { return x[a] < x[b] || (x[a] == x[b] && y[a] < y[b]); });
+  // Both chains, popping only right turns: collinear points on a hull edge stay.
+  std::vector<index_t> out, h;
+  auto chain = [&](auto first, auto last) {
+    h.clear();
+    for (auto it = first; it != last; ++it) {
+      while (h.size() >= 2 &&
+             pred::orient2d(x[h[h.size() - 2]], y[h[h.size() - 2]], x[h.back()], y[h.back()], x[*it], y[*it]) < 0)
+        h.pop_back();
+      h.push_back(*it);
+    }
+    out.insert(out.end(), h.begin(), h.end());
+  };
+  chain(order.begin(), order.end());
+  chain(order.rbegin(), order.rend());
   return out;
 }
 

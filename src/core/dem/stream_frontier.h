@@ -26,6 +26,20 @@ struct Hull {
   std::vector<double> x, y;
 };
 
+/// The test splitFinalTriangles applies to each triangle, set up once for a seam and a hull (which
+/// must outlive it); thread-safe to call.
+class FinalTriangleTest {
+ public:
+  FinalTriangleTest(double seam, const Hull* hull);
+  bool operator()(double ax, double ay, double bx, double by, double cx, double cy) const;
+
+ private:
+  double seam_;
+  const Hull* hull_;
+  Hull below_;  // the part of the hull with y <= seam
+  double extent_;
+};
+
 /// Appends each triangle to `final_out` when its closed circumdisk provably holds no point still to
 /// come, else to `open_out`. Those points have y < seam and, when `hull` (the whole cloud's convex
 /// hull) is given, lie in it: a disk that crosses the seam is still final when it misses the part of
@@ -46,6 +60,12 @@ bool laterPointsMayLieRightOf(double ax, double ay, double bx, double by, double
 /// The convex hull of the points (Andrew's monotone chain with the exact orient2d); NaN/Inf skipped.
 /// Fewer than three vertices when the points are collinear (then no centre is ever inside).
 Hull convexHull(const double* x, const double* y, std::size_t n);
+
+/// Every point on the boundary of the points' convex hull (vertices and the points on its edges), and
+/// possibly a few more, without duplicates removed: a filter by the polygon of the extreme points in
+/// eight directions, then a monotone chain that keeps collinear points. Linear work on `threads`
+/// threads plus a sort of the points the filter leaves (those near the hull).
+std::vector<index_t> hullBoundaryPoints(const double* x, const double* y, std::size_t n, unsigned threads);
 
 /// Marks the final cells of rows [row_begin, row_end): final[i] = 1 where owned[i] != 0 (a final
 /// triangle owns the cell, i = (r - row_begin) * grid.cols + c) or the centre is outside `hull` by the

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/dem/owned_cells.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
 
 namespace dw {
 namespace dem {
@@ -26,8 +27,12 @@ void StreamRaster::hold(std::size_t rows) {
 void StreamRaster::add(const StripPoints& p, const std::vector<index_t>& t) {
   if (t.empty() || next_ == grid_.rows) return;
   // The southernmost row a triangle may own a centre of (one row of slack; ownership decides exactly).
-  double ymin = HUGE_VAL;
-  for (const index_t v : t) ymin = std::min(ymin, p.y[v]);
+  const unsigned workers = workerCount(t.size(), threads_, 1 << 16);
+  std::vector<double> low(workers, HUGE_VAL);
+  parallelFor(t.size(), workers, [&](std::size_t b, std::size_t e, unsigned w) {
+    for (std::size_t k = b; k < e; ++k) low[w] = std::min(low[w], p.y[t[k]]);
+  });
+  const double ymin = *std::min_element(low.begin(), low.end());
   const double below = std::floor((grid_.north - ymin) / grid_.cell) + 2;
   const std::size_t last = below <= double(next_) ? next_ : std::size_t(std::min(double(grid_.rows), below));
   hold(last - next_);

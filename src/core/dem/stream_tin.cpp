@@ -4,7 +4,7 @@
 #include "core/dem/stream_tin.h"
 
 #include <algorithm>
-#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <unordered_set>
 
@@ -23,63 +23,90 @@ std::uint64_t edgeKey(index_t a, index_t b) {
   return (std::uint64_t(a) << 32) | b;
 }
 
-/// The two sorted point sets merged into one in ascending global index.
-StripPoints mergeByIndex(StripPoints& a, StripPoints& b) {
+/// The resident points and the strip merged into one set in ascending global index; `at` gets the
+/// resident points' positions in it. The resident set is small: each strip point moves by the number
+/// of resident points before it, found once per block.
+StripPoints mergeByIndex(StripPoints& resident, StripPoints& strip, std::vector<index_t>& at, unsigned threads) {
+  at.clear();
+  if (resident.size() == 0) return std::move(strip);
   StripPoints out;
-  const std::size_t n = a.size() + b.size();
-  out.x.reserve(n), out.y.reserve(n), out.value.reserve(n), out.index.reserve(n);
-  std::size_t i = 0, j = 0;
-  while (i < a.size() || j < b.size()) {
-    const bool take_a = j == b.size() || (i < a.size() && a.index[i] < b.index[j]);
-    StripPoints& s = take_a ? a : b;
-    std::size_t& k = take_a ? i : j;
-    out.x.push_back(s.x[k]), out.y.push_back(s.y[k]), out.value.push_back(s.value[k]);
-    out.index.push_back(s.index[k]);
-    ++k;
+  const std::size_t nr = resident.size(), ns = strip.size(), n = nr + ns;
+  out.x.resize(n), out.y.resize(n), out.value.resize(n), out.index.resize(n);
+  auto put = [&](const StripPoints& from, std::size_t i, std::size_t to) {
+    out.x[to] = from.x[i], out.y[to] = from.y[i], out.value[to] = from.value[i], out.index[to] = from.index[i];
+  };
+  parallelFor(ns, workerCount(ns, threads, 1 << 16), [&](std::size_t b, std::size_t e, unsigned) {
+    if (b == e) return;
+    std::size_t r = std::size_t(std::lower_bound(resident.index.begin(), resident.index.end(), strip.index[b]) -
+                                resident.index.begin());
+    for (std::size_t j = b; j < e; ++j) {
+      while (r < nr && resident.index[r] < strip.index[j]) ++r;
+      put(strip, j, j + r);
+    }
+  });
+  for (std::size_t i = 0; i < nr; ++i) {
+    at.push_back(index_t(i + std::size_t(std::lower_bound(strip.index.begin(), strip.index.end(), resident.index[i]) -
+                                         strip.index.begin())));
+    put(resident, i, at.back());
   }
-  a.clear(), b.clear();
+  resident.clear(), strip.clear();
   return out;
 }
 
-/// Directed edges of a triangulation by their first vertex: find(a, b) is the triangle holding a -> b.
-/// Built on `threads` threads: the counts and slots are claimed atomically, so the order of a vertex's
-/// entries varies, but every directed edge is in one triangle and find() gives the same answer.
+/// The triangles k of t with keep(k), in order, gathered on `threads` threads.
+template <class Keep>
+std::vector<index_t> gatherTriangles(const std::vector<index_t>& t, Keep&& keep, unsigned threads) {
+  const std::size_t nt = t.size() / 3;
+  const unsigned workers = workerCount(nt, threads, 1 << 16);
+  std::vector<std::size_t> offset(workers + 1, 0);
+  parallelFor(nt, workers, [&](std::size_t b, std::size_t e, unsigned w) {
+    std::size_t c = 0;
+    for (std::size_t k = b; k < e; ++k) c += keep(k) ? 1 : 0;
+    offset[w + 1] = c;
+  });
+  for (unsigned w = 0; w < workers; ++w) offset[w + 1] += offset[w];
+  std::vector<index_t> out(3 * offset[workers]);
+  parallelFor(nt, workers, [&](std::size_t b, std::size_t e, unsigned w) {
+    index_t* o = out.data() + 3 * offset[w];
+    for (std::size_t k = b; k < e; ++k)
+      if (keep(k)) o[0] = t[3 * k], o[1] = t[3 * k + 1], o[2] = t[3 * k + 2], o += 3;
+  });
+  return out;
+}
+
+/// The triangles with a covered vertex, by vertex: find(a, b) is the triangle holding the directed
+/// edge a -> b. Only the vertices the step asks about are covered (the resident points, the open
+/// triangles' vertices, the hull's boundary): building the index for every vertex costs as much as
+/// the strip's TIN. Asking about another vertex is an internal error, never a silent "no triangle".
 class EdgeIndex {
  public:
-  EdgeIndex(const std::vector<index_t>& t, std::size_t n, unsigned threads) : start_(n + 1, 0) {
-    const unsigned workers = workerCount(t.size(), threads, 1 << 16);
-    entries_.resize(t.size());
-    auto entry = [&](std::size_t k) {
-      const std::size_t tri = k / 3, next = 3 * tri + (k % 3 + 1) % 3;
-      return std::pair<index_t, index_t>(t[next], index_t(tri));
-    };
-    if (workers <= 1) {
-      for (std::size_t k = 0; k < t.size(); ++k) ++start_[t[k] + 1];
-      for (std::size_t v = 0; v < n; ++v) start_[v + 1] += start_[v];
-      std::vector<index_t> fill(start_.begin(), start_.end() - 1);
-      for (std::size_t k = 0; k < t.size(); ++k) entries_[fill[t[k]]++] = entry(k);
-      return;
-    }
-    std::vector<std::atomic<index_t>> slot(n + 1);
-    parallelFor(n + 1, workers, [&](std::size_t b, std::size_t e, unsigned) {
-      for (std::size_t v = b; v < e; ++v) slot[v].store(0, std::memory_order_relaxed);
-    });
-    parallelFor(t.size(), workers, [&](std::size_t b, std::size_t e, unsigned) {
-      for (std::size_t k = b; k < e; ++k) slot[t[k] + 1].fetch_add(1, std::memory_order_relaxed);
-    });
-    for (std::size_t v = 0; v < n; ++v) {
-      start_[v + 1] = start_[v] + slot[v + 1].load(std::memory_order_relaxed);
-      slot[v].store(start_[v], std::memory_order_relaxed);
-    }
-    parallelFor(t.size(), workers, [&](std::size_t b, std::size_t e, unsigned) {
-      for (std::size_t k = b; k < e; ++k) entries_[slot[t[k]].fetch_add(1, std::memory_order_relaxed)] = entry(k);
-    });
+  EdgeIndex(const std::vector<index_t>& t, const std::vector<char>& covered, unsigned threads)
+      : id_(covered.size(), kNoTriangle) {
+    for (std::size_t v = 0; v < covered.size(); ++v)
+      if (covered[v]) id_[v] = index_t(start_.size()), start_.push_back(0);
+    start_.push_back(0);
+    const std::vector<index_t> touching = trianglesTouching(t, covered, threads);
+    for (const index_t f : touching)
+      for (int j = 0; j < 3; ++j)
+        if (covered[t[3 * f + j]]) ++start_[id_[t[3 * f + j]] + 1];
+    for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+    std::vector<index_t> fill(start_.begin(), start_.end() - 1);
+    entries_.resize(start_.back());
+    for (const index_t f : touching)
+      for (int j = 0; j < 3; ++j) {
+        const index_t v = t[3 * f + j];
+        if (covered[v]) entries_[fill[id_[v]]++] = {t[3 * f + (j + 1) % 3], t[3 * f + (j + 2) % 3], f};
+      }
   }
+
   index_t find(index_t a, index_t b) const {
-    for (index_t e = start_[a]; e < start_[a + 1]; ++e)
-      if (entries_[e].first == b) return entries_[e].second;
+    const index_t c = idOf(a);
+    for (index_t e = start_[c]; e < start_[c + 1]; ++e)
+      if (entries_[e].next == b) return entries_[e].tri;
     return kNoTriangle;
   }
+
+  bool hasTriangles(index_t v) const { return id_[v] != kNoTriangle && start_[id_[v] + 1] > start_[id_[v]]; }
 
   /// Marks the vertices of the boundary (the convex hull of the triangulated points), walked from
   /// vertex `start` on it: each boundary vertex has one out-edge without its reverse (its triangles
@@ -88,9 +115,13 @@ class EdgeIndex {
     index_t v = start;
     for (std::size_t steps = 0; steps <= entries_.size(); ++steps) {
       on[v] = 1;
+      const index_t c = idOf(v);
       index_t next = kNoTriangle;
-      for (index_t e = start_[v]; e < start_[v + 1] && next == kNoTriangle; ++e)
-        if (find(entries_[e].first, v) == kNoTriangle) next = entries_[e].first;
+      for (index_t e = start_[c]; e < start_[c + 1] && next == kNoTriangle; ++e) {
+        bool reversed = false;  // some triangle of v holds next -> v: its vertex before v is next
+        for (index_t g = start_[c]; g < start_[c + 1] && !reversed; ++g) reversed = entries_[g].prev == entries_[e].next;
+        if (!reversed) next = entries_[e].next;
+      }
       if (next == kNoTriangle) throw Error("dw::dem: internal consistency failure (open boundary)");
       v = next;
       if (v == start) return;
@@ -99,105 +130,180 @@ class EdgeIndex {
   }
 
  private:
-  std::vector<index_t> start_;
-  std::vector<std::pair<index_t, index_t>> entries_;
+  struct Entry {
+    index_t next, prev, tri;  // the triangle's vertices after and before this one
+  };
+
+  index_t idOf(index_t v) const {
+    if (id_[v] == kNoTriangle) throw Error("dw::dem: internal consistency failure (edge of an uncovered vertex)");
+    return id_[v];
+  }
+
+  static std::vector<index_t> trianglesTouching(const std::vector<index_t>& t, const std::vector<char>& covered,
+                                                unsigned threads) {
+    const std::size_t nt = t.size() / 3;
+    const unsigned workers = workerCount(nt, threads, 1 << 16);
+    std::vector<std::vector<index_t>> per(workers);
+    parallelFor(nt, workers, [&](std::size_t b, std::size_t e, unsigned w) {
+      for (std::size_t f = b; f < e; ++f)
+        if (covered[t[3 * f]] || covered[t[3 * f + 1]] || covered[t[3 * f + 2]]) per[w].push_back(index_t(f));
+    });
+    std::vector<index_t> out;
+    for (const auto& v : per) out.insert(out.end(), v.begin(), v.end());
+    return out;
+  }
+
+  std::vector<index_t> id_;     // compact number of a covered vertex, else kNoTriangle
+  std::vector<index_t> start_;  // entries of compact vertex c: [start_[c], start_[c + 1])
+  std::vector<Entry> entries_;
 };
 
-enum Label : unsigned char { kTrue = 0, kUnderFinal = 1, kFinal = 2, kOpen = 3 };
+enum Label : unsigned char { kFinal = 0, kOpen = 1, kUnderFinal = 2 };
 
-}  // namespace
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point& t) {  // seconds since t; t becomes now
+  const Clock::time_point now = Clock::now();
+  const double s = std::chrono::duration<double>(now - t).count();
+  t = now;
+  return s;
+}
 
-void StreamTin::addStrip(StripPoints&& strip, double seam, const FinalTriangles& emit) {
-  StripPoints pts = mergeByIndex(resident_, strip);
-  const std::size_t n = pts.size();
-  if (n == 0) return;
-  tin::TinOptions to;
-  to.num_threads = threads_;
-  tin::TinResult tin = tin::triangulate(pts.x.data(), pts.y.data(), n, to);
-  if (tin.degenerate) {  // collinear so far: every distinct point stays
-    std::vector<char> dup(n, 0);
-    for (const auto& d : tin.duplicates) dup[d.first] = 1;
-    for (std::size_t i = 0; i < n; ++i)
-      if (!dup[i]) {
-        resident_.x.push_back(pts.x[i]), resident_.y.push_back(pts.y[i]);
-        resident_.value.push_back(pts.value[i]), resident_.index.push_back(pts.index[i]);
-      }
-    return;
-  }
-  const std::vector<index_t>& t = tin.triangles;
-  const std::size_t nt = t.size() / 3;
-  const EdgeIndex edges(t, n, threads_);
+/// The old frontier in local indices, as a list and as a set of edge keys.
+struct LocalFrontier {
+  std::vector<std::pair<index_t, index_t>> edges;
+  std::unordered_set<std::uint64_t> keys;
+  bool has(index_t a, index_t b) const { return keys.count(edgeKey(a, b)) != 0; }
+};
+
+LocalFrontier localFrontier(const StripPoints& pts, const std::vector<std::pair<std::uint64_t, std::uint64_t>>& f) {
   auto local = [&](std::uint64_t g) {
     const auto it = std::lower_bound(pts.index.begin(), pts.index.end(), g);
-    if (it == pts.index.end() || *it != g)
-      throw Error("dw::dem: internal consistency failure (frontier vertex)");
+    if (it == pts.index.end() || *it != g) throw Error("dw::dem: internal consistency failure (frontier vertex)");
     return index_t(it - pts.index.begin());
   };
-  std::vector<std::pair<index_t, index_t>> old_frontier;
-  std::unordered_set<std::uint64_t> old_set;
-  for (const auto& e : frontier_) {
-    old_frontier.emplace_back(local(e.first), local(e.second));
-    old_set.insert(edgeKey(old_frontier.back().first, old_frontier.back().second));
+  LocalFrontier out;
+  for (const auto& e : f) {
+    out.edges.emplace_back(local(e.first), local(e.second));
+    out.keys.insert(edgeKey(out.edges.back().first, out.edges.back().second));
   }
+  return out;
+}
 
-  // Triangles under the final region: reached from the final side of a frontier edge.
-  std::vector<unsigned char> label(nt, kTrue);
+/// Every triangle kFinal or kOpen by stream_frontier.h's test; each label is written by one worker.
+std::vector<unsigned char> labelFinalOrOpen(const StripPoints& p, const std::vector<index_t>& t, double seam,
+                                            const Hull* hull, unsigned threads) {
+  const FinalTriangleTest isFinal(seam, hull);
+  std::vector<unsigned char> label(t.size() / 3);
+  parallelFor(label.size(), workerCount(label.size(), threads, 16384), [&](std::size_t b, std::size_t e, unsigned) {
+    for (std::size_t k = b; k < e; ++k) {
+      const index_t u = t[3 * k], v = t[3 * k + 1], w = t[3 * k + 2];
+      label[k] = isFinal(p.x[u], p.y[u], p.x[v], p.y[v], p.x[w], p.y[w]) ? kFinal : kOpen;
+    }
+  });
+  return label;
+}
+
+/// Labels kUnderFinal the triangles reached from the final side of a frontier edge without crossing
+/// one: they re-triangulate the region the final triangles already cover, so their vertices are
+/// resident points (the index covers them).
+void labelUnderFinal(const std::vector<index_t>& t, const EdgeIndex& edges, const LocalFrontier& old,
+                     std::vector<unsigned char>& label) {
   std::vector<index_t> stack;
-  for (const auto& e : old_frontier) {
+  for (const auto& e : old.edges) {
     const index_t f = edges.find(e.first, e.second);
-    if (f != kNoTriangle && label[f] == kTrue) label[f] = kUnderFinal, stack.push_back(f);
+    if (f != kNoTriangle && label[f] != kUnderFinal) label[f] = kUnderFinal, stack.push_back(f);
   }
   while (!stack.empty()) {
     const index_t f = stack.back();
     stack.pop_back();
     for (int j = 0; j < 3; ++j) {
       const index_t p = t[3 * f + j], q = t[3 * f + (j + 1) % 3];
-      if (old_set.count(edgeKey(p, q))) continue;
+      if (old.has(p, q)) continue;
       const index_t g = edges.find(q, p);
-      if (g != kNoTriangle && label[g] == kTrue) label[g] = kUnderFinal, stack.push_back(g);
+      if (g != kNoTriangle && label[g] != kUnderFinal) label[g] = kUnderFinal, stack.push_back(g);
     }
   }
+}
 
-  // The rest, final or open.
-  std::vector<index_t> live, fin, open;
-  for (std::size_t k = 0; k < nt; ++k)
-    if (label[k] == kTrue) live.insert(live.end(), {t[3 * k], t[3 * k + 1], t[3 * k + 2]});
-  splitFinalTriangles(pts.x.data(), pts.y.data(), live.data(), live.size(), seam, hull_, fin, open, threads_);
-  std::size_t fi = 0;  // the split keeps the order: each live triangle is the next final one or open
-  for (std::size_t k = 0; k < nt; ++k) {
-    if (label[k] != kTrue) continue;
-    const bool is_final =
-        fi < fin.size() && fin[fi] == t[3 * k] && fin[fi + 1] == t[3 * k + 1] && fin[fi + 2] == t[3 * k + 2];
-    label[k] = is_final ? kFinal : kOpen;
-    fi += is_final ? 3 : 0;
-  }
+/// The vertices the step asks edges about: the resident points, the vertices of triangles the test
+/// leaves open, and the points on the hull's boundary.
+std::vector<char> coveredVertices(std::size_t n, const std::vector<index_t>& t, const std::vector<unsigned char>& label,
+                                  const std::vector<index_t>& resident_at, const std::vector<index_t>& hull_points,
+                                  unsigned threads) {
+  std::vector<char> covered(n, 0);
+  for (const index_t v : resident_at) covered[v] = 1;
+  for (const index_t v : gatherTriangles(t, [&](std::size_t k) { return label[k] == kOpen; }, threads)) covered[v] = 1;
+  for (const index_t v : hull_points) covered[v] = 1;
+  return covered;
+}
+
+/// The lexicographically smallest (x, then y) of the hull's boundary points that are vertices of a
+/// triangle: a vertex of the triangulation's convex hull.
+index_t lowestVertex(const StripPoints& p, const std::vector<index_t>& hull_points, const EdgeIndex& edges) {
+  index_t lowest = kNoTriangle;
+  for (const index_t v : hull_points)
+    if (edges.hasTriangles(v) &&
+        (lowest == kNoTriangle || p.x[v] < p.x[lowest] || (p.x[v] == p.x[lowest] && p.y[v] < p.y[lowest])))
+      lowest = v;
+  if (lowest == kNoTriangle) throw Error("dw::dem: internal consistency failure (no hull vertex)");
+  return lowest;
+}
+
+}  // namespace
+
+void StreamTin::keepDistinct(StripPoints& pts, const tin::TinResult& tin) {
+  std::vector<char> dup(pts.size(), 0);
+  for (const auto& d : tin.duplicates) dup[d.first] = 1;
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    if (!dup[i]) keepPoint(pts, i);
+}
+
+void StreamTin::keepPoint(const StripPoints& pts, std::size_t i) {
+  resident_.x.push_back(pts.x[i]), resident_.y.push_back(pts.y[i]);
+  resident_.value.push_back(pts.value[i]), resident_.index.push_back(pts.index[i]);
+}
+
+void StreamTin::addStrip(StripPoints&& strip, double seam, const FinalTriangles& emit) {
+  Clock::time_point clock = Clock::now();
+  std::vector<index_t> resident_at;
+  StripPoints pts = mergeByIndex(resident_, strip, resident_at, threads_);
+  const std::size_t n = pts.size();
+  times_.merge_s += since(clock);
+  if (n == 0) return;
+  tin::TinOptions to;
+  to.num_threads = threads_;
+  const tin::TinResult tin = tin::triangulate(pts.x.data(), pts.y.data(), n, to);
+  times_.tin_s += since(clock);
+  if (tin.degenerate) return keepDistinct(pts, tin);  // collinear so far: every distinct point stays
+  const std::vector<index_t>& t = tin.triangles;
+  std::vector<unsigned char> label = labelFinalOrOpen(pts, t, seam, hull_, threads_);
+  const std::vector<index_t> hull_points = hullBoundaryPoints(pts.x.data(), pts.y.data(), n, threads_);
+  const EdgeIndex edges(t, coveredVertices(n, t, label, resident_at, hull_points, threads_), threads_);
+  const LocalFrontier old = localFrontier(pts, frontier_);
+  labelUnderFinal(t, edges, old, label);
+  const std::vector<index_t> fin = gatherTriangles(t, [&](std::size_t k) { return label[k] == kFinal; }, threads_);
+  const std::vector<index_t> open = gatherTriangles(t, [&](std::size_t k) { return label[k] == kOpen; }, threads_);
+  times_.classify_s += since(clock);
   if (emit && !fin.empty()) emit(pts, fin);
+  times_.emit_s += since(clock);
 
   // The new frontier: old frontier edges and final triangles' edges whose other side is not final.
   std::vector<char> keep(n, 0);
-  for (std::size_t k = 0; k < open.size(); ++k) keep[open[k]] = 1;
+  for (const index_t v : open) keep[v] = 1;
   auto isFrontier = [&](index_t a, index_t b) {
     const index_t across = edges.find(b, a);
     if (across != kNoTriangle) return label[across] == kOpen;
-    if (old_set.count(edgeKey(b, a))) return false;
+    if (old.has(b, a)) return false;
     // A hull edge: stays on the frontier while a later point may come outside it.
     return laterPointsMayLieRightOf(pts.x[a], pts.y[a], pts.x[b], pts.y[b], seam, hull_);
   };
   // An edge of a final triangle with an open triangle across has two vertices of open triangles; one
   // with none across is a boundary edge. Only such edges need the look-up.
   std::vector<char> boundary(n, 0);
-  {
-    index_t lowest = kNoTriangle;  // the lexicographically smallest vertex of a triangle is on the hull
-    for (std::size_t k = 0; k < t.size(); ++k) {
-      const index_t v = t[k];
-      if (lowest == kNoTriangle || pts.x[v] < pts.x[lowest] || (pts.x[v] == pts.x[lowest] && pts.y[v] < pts.y[lowest]))
-        lowest = v;
-    }
-    edges.markBoundary(lowest, boundary);
-  }
+  edges.markBoundary(lowestVertex(pts, hull_points, edges), boundary);
   auto mayBeFrontier = [&](index_t a, index_t b) { return (keep[a] && keep[b]) || (boundary[a] && boundary[b]); };
   std::vector<std::pair<index_t, index_t>> found;
-  for (const auto& e : old_frontier)
+  for (const auto& e : old.edges)
     if (isFrontier(e.first, e.second)) found.push_back(e);
   // The final triangles' edges in blocks, appended in block order (the same list for any thread count).
   const std::size_t nf = fin.size() / 3;
@@ -217,12 +323,9 @@ void StreamTin::addStrip(StripPoints&& strip, double seam, const FinalTriangles&
     keep[e.first] = keep[e.second] = 1;
   }
   frontier_.swap(next);
-
   for (std::size_t i = 0; i < n; ++i)
-    if (keep[i]) {
-      resident_.x.push_back(pts.x[i]), resident_.y.push_back(pts.y[i]);
-      resident_.value.push_back(pts.value[i]), resident_.index.push_back(pts.index[i]);
-    }
+    if (keep[i]) keepPoint(pts, i);
+  times_.frontier_s += since(clock);
 }
 
 }  // namespace detail

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "core/dem/stream_frontier.h"
+#include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/core/graph/types.h"
 
 namespace dw {
@@ -38,6 +39,15 @@ struct StripPoints {
 /// Final triangles in indices of `points` (counter-clockwise); `points` is in ascending global index.
 using FinalTriangles = std::function<void(const StripPoints& points, const std::vector<index_t>& triangles)>;
 
+/// Wall seconds of addStrip's steps, summed over the strips (where a strip's time goes).
+struct StreamTinTimes {
+  double merge_s = 0;     ///< the resident points merged into the strip by index
+  double tin_s = 0;       ///< the strip's TIN
+  double classify_s = 0;  ///< the edge index, the triangles under the final region, final or open
+  double emit_s = 0;      ///< the final triangles' consumer (the raster, the mesh)
+  double frontier_s = 0;  ///< the new frontier and the resident copy
+};
+
 class StreamTin {
  public:
   /// `hull`: the whole cloud's convex hull (may be null: then only the circle test decides).
@@ -49,10 +59,14 @@ class StreamTin {
 
   std::size_t residentPoints() const { return resident_.size(); }
   std::size_t frontierEdges() const { return frontier_.size(); }
+  const StreamTinTimes& times() const { return times_; }
 
  private:
+  void keepDistinct(StripPoints& pts, const tin::TinResult& tin);
+  void keepPoint(const StripPoints& pts, std::size_t i);
   const Hull* hull_;
   unsigned threads_;
+  StreamTinTimes times_;
   StripPoints resident_;
   /// Directed edges (global indices) of final triangles, as oriented in them, whose other side is not
   /// final: an open triangle or the outside of an open hull edge.

@@ -120,7 +120,9 @@ void expectSameAsInMemory(const Cloud& c, const std::vector<double>& seams, doub
   for (std::size_t i = 0; i < in_memory.size(); ++i)
     differ += std::memcmp(&s.raster[i], &in_memory[i], sizeof(double)) != 0;
   EXPECT_EQ(differ, 0u) << "cells differing from the in-memory raster";
-  if (seams.size() > 3) EXPECT_LT(s.max_resident, c.x.size() / 2);
+  if (seams.size() > 3) {
+    EXPECT_LT(s.max_resident, c.x.size() / 2);
+  }
 }
 
 std::vector<double> evenSeams(double y0, double height, unsigned strips) {

@@ -50,6 +50,10 @@ struct StreamDemStats {
   std::uint64_t triangles = 0;
   TinRasterStats raster;
   double scan_s = 0, spill_s = 0, strips_s = 0;
+  /// Where strips_s goes, summed over the strips: reading a strip's spill back, merging the resident
+  /// points in, its TIN, sorting final from open triangles, rasterising the final ones (or the mesh
+  /// sink), the new frontier and resident set, and handing final rows to the row sink.
+  double read_s = 0, merge_s = 0, tin_s = 0, classify_s = 0, emit_s = 0, frontier_s = 0, flush_s = 0;
 };
 
 using StreamRowSink = std::function<void(std::size_t row_begin, std::size_t rows, const double* values)>;
