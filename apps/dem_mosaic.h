@@ -103,6 +103,9 @@ inline MosaicResult writeDemMosaic(MPI_Comm comm, const DemOptions& d, const dw:
   }
   if (!allOk(comm, error.empty())) {
     writer.reset();  // removes this rank's temporary
+    // The failing rank's error ends in MPI_Abort, which kills the others: each removes its
+    // temporary first.
+    MPI_Barrier(comm);
     throw dw::Error(error.empty() ? "--dem: another rank failed to write its tile" : error);
   }
 
@@ -114,8 +117,11 @@ inline MosaicResult writeDemMosaic(MPI_Comm comm, const DemOptions& d, const dw:
   } catch (const std::exception& e) {
     error = e.what();
   }
-  if (!allOk(comm, error.empty()))
+  if (!allOk(comm, error.empty())) {
+    writer.reset();
+    MPI_Barrier(comm);  // as in phase 1: every temporary gone before anyone aborts
     throw dw::Error(error.empty() ? "--dem: another rank failed to rename its tile" : error);
+  }
   std::vector<dw::gdal::VrtBand> bands;
   for (int r = 0; r < tin.size; ++r) {
     dw::gdal::VrtBand b;
