@@ -35,10 +35,11 @@ double since(Clock::time_point t) {
 }
 
 void usage() {
-  std::fprintf(stderr,
-               "usage: dw_dem_scale tiles.{las,laz}... -o dem.raw --resolution R [--class C] [--max-edge L]\n"
-               "                    [--threads N] [--stream [--memory-limit MB]] [--float64] [--quiet]\n"
-               "  Writes dem.raw (one band, little-endian Float32, row 0 north) and dem.hdr (ENVI header).\n");
+  std::fprintf(
+      stderr,
+      "usage: dw_dem_scale tiles.{las,laz}... -o dem.raw --resolution R [--class C] [--max-edge L]\n"
+      "                    [--threads N] [--stream [--memory-limit MB]] [--float64] [--quiet]\n"
+      "  Writes dem.raw (one band, little-endian Float32, row 0 north) and dem.hdr (ENVI header).\n");
 }
 
 struct Arguments {
@@ -119,9 +120,10 @@ Result runStream(const Arguments& a) {
       const bool end = p.points_read >= p.points_total;
       if (p.elapsed_s - last < 5.0 && !end) return;
       last = p.elapsed_s;
-      std::fprintf(stderr, "  [%7.1f s] %-6s %llu of %llu points  strips %zu of %zu  %.2f M points/s  left %.0f s\n",
-                   p.elapsed_s, p.stage, (unsigned long long)p.points_read, (unsigned long long)p.points_total,
-                   p.strips_done, p.strips, p.rate / 1e6, p.left_s);
+      std::fprintf(stderr,
+                   "  [%7.1f s] %-6s %llu of %llu points  strips %zu of %zu  %.2f M points/s  left %.0f s\n",
+                   p.elapsed_s, p.stage, (unsigned long long)p.points_read,
+                   (unsigned long long)p.points_total, p.strips_done, p.strips, p.rate / 1e6, p.left_s);
     };
   dw::dem::StreamDem dem(o, show);
   dw::dem::EnviOptions eo;
@@ -130,11 +132,12 @@ Result runStream(const Arguments& a) {
   const dw::dem::StreamDemStats st =
       dem.run([&](std::size_t r, std::size_t k, const double* v) { writer.writeRows(r, k, v); });
   writer.commit();
-  std::printf("strips %zu (largest %zu points)  resident at most %zu points  rows held at most %zu\n", st.strips,
-              st.max_strip_points, st.max_resident, st.max_rows_held);
+  std::printf("strips %zu (largest %zu points)  resident at most %zu points  rows held at most %zu\n",
+              st.strips, st.max_strip_points, st.max_resident, st.max_rows_held);
   std::printf("scan %.3f s  spill %.3f s  strips %.3f s\n", st.scan_s, st.spill_s, st.strips_s);
-  std::printf("strips: read %.3f  merge %.3f  tin %.3f  classify %.3f  raster %.3f  frontier %.3f  flush %.3f s\n",
-              st.read_s, st.merge_s, st.tin_s, st.classify_s, st.emit_s, st.frontier_s, st.flush_s);
+  std::printf(
+      "strips: read %.3f  merge %.3f  tin %.3f  classify %.3f  raster %.3f  frontier %.3f  flush %.3f s\n",
+      st.read_s, st.merge_s, st.tin_s, st.classify_s, st.emit_s, st.frontier_s, st.flush_s);
   return {st.points, dem.grid(), st.raster.cells_set};
 }
 
@@ -153,13 +156,15 @@ Result runInMemory(const Arguments& a) {
     for (int k = 0; k < 3; ++k) {
       const double d = (more.header.offset[k] - h.offset[k]) / h.scale[k];
       if (more.header.scale[k] != h.scale[k] || d != std::round(d) || std::fabs(d) > 4e9)
-        throw dw::Error(a.inputs[i] + ": its LAS scale and offset do not share the first input's integer grid");
+        throw dw::Error(a.inputs[i] +
+                        ": its LAS scale and offset do not share the first input's integer grid");
       shift[k] = std::int64_t(d);
     }
     auto add = [&](std::vector<std::int32_t>& to, const std::vector<std::int32_t>& from, std::int64_t s) {
       for (std::int32_t v : from) {
         const std::int64_t w = std::int64_t(v) + s;
-        if (w < INT32_MIN || w > INT32_MAX) throw dw::Error(a.inputs[i] + ": a coordinate leaves the first input's frame");
+        if (w < INT32_MIN || w > INT32_MAX)
+          throw dw::Error(a.inputs[i] + ": a coordinate leaves the first input's frame");
         to.push_back(std::int32_t(w));
       }
     };
@@ -206,7 +211,8 @@ Result runInMemory(const Arguments& a) {
   dw::dem::EnviWriter writer(a.out, res.grid, eo);
   writer.writeRows(0, res.grid.rows, raster.data());
   writer.commit();
-  std::printf("read %.3f s  triangulate %.3f s  raster %.3f s  write %.3f s\n", t_read, t_tin, t_raster, since(t3));
+  std::printf("read %.3f s  triangulate %.3f s  raster %.3f s  write %.3f s\n", t_read, t_tin, t_raster,
+              since(t3));
   res.cells_set = rs.cells_set;
   return res;
 }
@@ -219,12 +225,15 @@ int main(int argc, char** argv) {
     const auto t0 = Clock::now();
     const Result r = a.stream ? runStream(a) : runInMemory(a);
     const double wall = since(t0), peak = peakRssMb();
-    std::printf("raster %zu x %zu  cells set %zu of %zu\n", r.grid.cols, r.grid.rows, r.cells_set, r.grid.size());
+    std::printf("raster %zu x %zu  cells set %zu of %zu\n", r.grid.cols, r.grid.rows, r.cells_set,
+                r.grid.size());
     std::printf(
-        "result mode %s threads %u memory_limit_mb %zu points %llu wall_s %.3f points_per_s %.0f peak_rss_mb %.1f "
+        "result mode %s threads %u memory_limit_mb %zu points %llu wall_s %.3f points_per_s %.0f peak_rss_mb "
+        "%.1f "
         "bytes_per_point %.1f\n",
         a.stream ? "stream" : "in-memory", a.threads, a.stream ? a.memory_limit_mb : std::size_t(0),
-        (unsigned long long)r.points, wall, double(r.points) / wall, peak, peak * 1048576.0 / double(r.points));
+        (unsigned long long)r.points, wall, double(r.points) / wall, peak,
+        peak * 1048576.0 / double(r.points));
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dw_dem_scale: %s\n", e.what());

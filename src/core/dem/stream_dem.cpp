@@ -2,10 +2,11 @@
 /// \brief The streaming DEM's passes (see stream_dem.h): scan, spill into strips, strips in order.
 #include "pcl_delaunay_walk/core/dem/stream_dem.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <unistd.h>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -35,7 +36,9 @@ double since(Clock::time_point t) {
 /// merged arrays, the triangles, the edge index and the labels (docs/dem.md "Beyond memory").
 constexpr std::size_t kBytesPerStripPoint = 260;
 constexpr std::size_t kHistogramBins = 1 << 16;
-constexpr std::size_t kMaxStrips = 512;  // one open spill file each
+constexpr std::size_t kMaxStrips = 512;
+/// Pass 2 keeps one spill file per worker and strip open: workers are limited to keep them within this.
+constexpr std::size_t kMaxSpillFiles = 512;
 
 /// One spilled point, 20 bytes packed: the global index and the frame integers (x, y and z or the
 /// intensity), from which the frame coordinates and the value are recomputed bit for bit.
@@ -63,11 +66,12 @@ struct SpillRun {
 /// the new batch), folded every 65,536 points that may be hull vertices.
 struct RunningHull {
   detail::Hull hull;
-  std::vector<double> core_x, core_y;  // see insideCore
-  std::vector<double> hx, hy;          // the batch
+  detail::Hull core;           // the hull's extreme octagon: points deep inside it are skipped
+  std::vector<double> hx, hy;  // the batch
 
   void add(double x, double y) {
-    if (insideCore(x, y)) return;
+    // Inside the hull of the points so far: no vertex of any later hull (the test only skips work).
+    if (detail::deepInside(core, x, y)) return;
     hx.push_back(x), hy.push_back(y);
     if (hx.size() >= (1u << 16)) fold();
   }
@@ -77,32 +81,7 @@ struct RunningHull {
     hy.insert(hy.end(), hull.y.begin(), hull.y.end());
     hull = detail::convexHull(hx.data(), hy.data(), hx.size());
     hx.clear(), hy.clear();
-    // The hull's extreme vertices in eight directions, counter-clockwise: a polygon inside the hull.
-    core_x.clear(), core_y.clear();
-    for (int d = 0; d < 8 && hull.x.size() >= 3; ++d) {
-      const double cx = std::cos(d * 0.7853981633974483), cy = std::sin(d * 0.7853981633974483);
-      std::size_t best = 0;
-      for (std::size_t i = 1; i < hull.x.size(); ++i)
-        if (hull.x[i] * cx + hull.y[i] * cy > hull.x[best] * cx + hull.y[best] * cy) best = i;
-      if (core_x.empty() || core_x.back() != hull.x[best] || core_y.back() != hull.y[best])
-        core_x.push_back(hull.x[best]), core_y.push_back(hull.y[best]);
-    }
-  }
-
-  /// Whether (x, y) lies inside the core polygon by a margin far above rounding: then it is inside the
-  /// hull of the points so far and cannot be a vertex of any later hull (it only skips work).
-  bool insideCore(double x, double y) const {
-    const std::size_t m = core_x.size();
-    if (m < 3) return false;
-    for (std::size_t i = 0; i < m; ++i) {
-      const std::size_t j = (i + 1) % m;
-      const double ex = core_x[j] - core_x[i], ey = core_y[j] - core_y[i];
-      const double wx = x - core_x[i], wy = y - core_y[i];
-      const double slack = 1e-9 * (std::fabs(ex) + std::fabs(ey)) *
-                           (std::fabs(core_x[i]) + std::fabs(core_y[i]) + std::fabs(x) + std::fabs(y) + 1.0);
-      if (!(ex * wy - ey * wx > slack)) return false;
-    }
-    return true;
+    core = detail::extremeOctagon(hull.x.data(), hull.y.data(), hull.x.size());
   }
 };
 
@@ -138,7 +117,9 @@ struct StreamDem::Impl {
   /// The frame coordinates and the value of a point's integers (LAS units of the first input).
   double frameX(std::int32_t x) const { return same_scale ? double(x) : x * first.scale[0]; }
   double frameY(std::int32_t y) const { return same_scale ? double(y) : y * first.scale[1]; }
-  double valueOf(std::int32_t v) const { return o.intensity ? double(v) : v * first.scale[2] + first.offset[2]; }
+  double valueOf(std::int32_t v) const {
+    return o.intensity ? double(v) : v * first.scale[2] + first.offset[2];
+  }
 
   /// Reads every kept point of input i in order, as (x, y, v, world x, y, z): x, y the integers in
   /// the first input's frame, v its z integer or its intensity; after each chunk, chunk(records).
@@ -239,7 +220,8 @@ struct StreamDem::Impl {
       kept += part.kept;
       for (int a = 0; a < 2; ++a) lo[a] = std::min(lo[a], part.lo[a]), hi[a] = std::max(hi[a], part.hi[a]);
       for (std::size_t b = 0; b < kHistogramBins; ++b) hist[b] += part.hist[b];
-      for (std::size_t v = 0; v < part.hull.hull.x.size(); ++v) all.add(part.hull.hull.x[v], part.hull.hull.y[v]);
+      for (std::size_t v = 0; v < part.hull.hull.x.size(); ++v)
+        all.add(part.hull.hull.x[v], part.hull.hull.y[v]);
       part = ScanPart();
     }
     all.fold();
@@ -321,23 +303,16 @@ std::uint64_t StreamDem::points() const {
   return impl_->kept;
 }
 
-namespace {
-
-/// Workers of pass 2: one spill file per worker and strip stays open, within kMaxSpillFiles; one
-/// worker when the mesh sink needs the vertices in input order.
-constexpr std::size_t kMaxSpillFiles = 512;
-
-}  // namespace
-
 /// Pass 2: every kept point appended to its strip's spill file, the inputs read in parallel, one
-/// worker per input at a time. Leaves spill[worker][strip] and runs[strip].
+/// worker per input at a time (one worker when the mesh sink needs the vertices in input order).
+/// Leaves spill[worker][strip] and runs[strip].
 void StreamDem::Impl::spillAll(const StreamMeshSink* mesh, std::vector<std::vector<SpillFile>>& spill,
                                std::vector<std::vector<SpillRun>>& runs) {
   const std::size_t strips = seams.size() + 1;
-  const unsigned workers =
-      mesh ? 1u
-           : unsigned(std::max<std::size_t>(1, std::min<std::size_t>({resolveThreads(o.threads), o.inputs.size(),
-                                                                        kMaxSpillFiles / strips})));
+  const unsigned workers = mesh ? 1u
+                                : unsigned(std::max<std::size_t>(
+                                      1, std::min<std::size_t>({resolveThreads(o.threads), o.inputs.size(),
+                                                                kMaxSpillFiles / strips})));
   // stdio buffers of an eighth of the memory limit together, 4 KB to 1 MB each.
   const std::size_t buffer_bytes = std::min<std::size_t>(
       1 << 20, std::max<std::size_t>(4096, o.memory_limit_mb * 131072 / (strips * workers)));
@@ -367,7 +342,8 @@ void StreamDem::Impl::spillAll(const StreamMeshSink* mesh, std::vector<std::vect
             if (mesh) mesh->vertex(wx, wy, wz);
             const std::size_t s = stripOf(frameY(y));
             char r[kSpillBytes];
-            std::memcpy(r, &index, 8), std::memcpy(r + 8, &x, 4), std::memcpy(r + 12, &y, 4), std::memcpy(r + 16, &v, 4);
+            std::memcpy(r, &index, 8), std::memcpy(r + 8, &x, 4), std::memcpy(r + 12, &y, 4),
+                std::memcpy(r + 16, &v, 4);
             if (std::fwrite(r, kSpillBytes, 1, spill[w][s].f) != 1)
               throw Error("dw::dem::StreamDem: cannot write a spill file (disk full?)");
             ++index, ++in_strip[s];
@@ -404,7 +380,8 @@ detail::StripPoints StreamDem::Impl::readStrip(std::size_t s, std::vector<std::v
   std::vector<Piece> pieces;
   std::uint64_t total = 0;
   for (const SpillRun& r : runs) {
-    for (std::uint64_t f = 0; f < r.count; f += kPiece) pieces.push_back({&r, f, std::min(kPiece, r.count - f), total + f});
+    for (std::uint64_t f = 0; f < r.count; f += kPiece)
+      pieces.push_back({&r, f, std::min(kPiece, r.count - f), total + f});
     total += r.count;
   }
   detail::StripPoints p;
@@ -423,7 +400,8 @@ detail::StripPoints StreamDem::Impl::readStrip(std::size_t s, std::vector<std::v
       const char* r = buf.data() + i * kSpillBytes;
       const std::size_t to = piece.at + i;
       std::int32_t x, y, v;
-      std::memcpy(&p.index[to], r, 8), std::memcpy(&x, r + 8, 4), std::memcpy(&y, r + 12, 4), std::memcpy(&v, r + 16, 4);
+      std::memcpy(&p.index[to], r, 8), std::memcpy(&x, r + 8, 4), std::memcpy(&y, r + 12, 4),
+          std::memcpy(&v, r + 16, 4);
       p.x[to] = frameX(x), p.y[to] = frameY(y), p.value[to] = valueOf(v);
     }
   });

@@ -139,17 +139,13 @@ Hull convexHull(const double* x, const double* y, std::size_t n) {
   return out;
 }
 
-namespace {
-
-/// The extreme points in eight directions, counter-clockwise without repeats: a convex polygon inside
-/// the hull.
 Hull extremeOctagon(const double* x, const double* y, std::size_t n, unsigned threads) {
+  // Directions d * 45 degrees, counter-clockwise from +x.
+  constexpr double h = 0.7071067811865476;
+  constexpr double cx[8] = {1, h, 0, -h, -1, -h, 0, h}, cy[8] = {0, h, 1, h, 0, -h, -1, -h};
+  auto dot = [&](std::size_t i, int d) { return x[i] * cx[d] + y[i] * cy[d]; };
   const unsigned workers = workerCount(n, threads, 1 << 16);
   std::vector<std::array<std::size_t, 8>> best(workers);
-  auto dot = [&](std::size_t i, int d) {
-    const double c = std::cos(d * 0.7853981633974483), s = std::sin(d * 0.7853981633974483);
-    return x[i] * c + y[i] * s;
-  };
   parallelFor(n, workers, [&](std::size_t b, std::size_t e, unsigned w) {
     best[w].fill(b);
     for (std::size_t i = b; i < e; ++i)
@@ -157,33 +153,30 @@ Hull extremeOctagon(const double* x, const double* y, std::size_t n, unsigned th
         if (dot(i, d) > dot(best[w][d], d)) best[w][d] = i;
   });
   Hull out;
-  for (int d = 0; d < 8; ++d) {
+  for (int d = 0; d < 8 && n > 0; ++d) {
     std::size_t top = best[0][d];
     for (unsigned w = 1; w < workers; ++w)
       if (dot(best[w][d], d) > dot(top, d)) top = best[w][d];
-    if (out.x.empty() || out.x.back() != x[top] || out.y.back() != y[top]) out.x.push_back(x[top]), out.y.push_back(y[top]);
+    if (out.x.empty() || out.x.back() != x[top] || out.y.back() != y[top])
+      out.x.push_back(x[top]), out.y.push_back(y[top]);
   }
   while (out.x.size() > 1 && out.x.back() == out.x.front() && out.y.back() == out.y.front())
     out.x.pop_back(), out.y.pop_back();
   return out;
 }
 
-/// Whether (px, py) is inside convex polygon h by a margin far above rounding (then it is no point of
-/// the hull's boundary).
 bool deepInside(const Hull& h, double px, double py) {
   const std::size_t m = h.x.size();
   if (m < 3) return false;
   for (std::size_t i = 0; i < m; ++i) {
     const std::size_t j = (i + 1) % m;
     const double ex = h.x[j] - h.x[i], ey = h.y[j] - h.y[i], wx = px - h.x[i], wy = py - h.y[i];
-    const double slack =
-        1e-9 * (std::fabs(ex) + std::fabs(ey)) * (std::fabs(h.x[i]) + std::fabs(h.y[i]) + std::fabs(px) + std::fabs(py) + 1.0);
+    const double slack = 1e-9 * (std::fabs(ex) + std::fabs(ey)) *
+                         (std::fabs(h.x[i]) + std::fabs(h.y[i]) + std::fabs(px) + std::fabs(py) + 1.0);
     if (!(ex * wy - ey * wx > slack)) return false;
   }
   return true;
 }
-
-}  // namespace
 
 std::vector<index_t> hullBoundaryPoints(const double* x, const double* y, std::size_t n, unsigned threads) {
   const Hull core = extremeOctagon(x, y, n, threads);
@@ -202,8 +195,8 @@ std::vector<index_t> hullBoundaryPoints(const double* x, const double* y, std::s
   auto chain = [&](auto first, auto last) {
     h.clear();
     for (auto it = first; it != last; ++it) {
-      while (h.size() >= 2 &&
-             pred::orient2d(x[h[h.size() - 2]], y[h[h.size() - 2]], x[h.back()], y[h.back()], x[*it], y[*it]) < 0)
+      while (h.size() >= 2 && pred::orient2d(x[h[h.size() - 2]], y[h[h.size() - 2]], x[h.back()], y[h.back()],
+                                             x[*it], y[*it]) < 0)
         h.pop_back();
       h.push_back(*it);
     }

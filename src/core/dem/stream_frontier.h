@@ -61,6 +61,14 @@ bool laterPointsMayLieRightOf(double ax, double ay, double bx, double by, double
 /// Fewer than three vertices when the points are collinear (then no centre is ever inside).
 Hull convexHull(const double* x, const double* y, std::size_t n);
 
+/// The points' extreme points in eight directions (45 degrees apart), counter-clockwise without
+/// repeats: a convex polygon inside their hull.
+Hull extremeOctagon(const double* x, const double* y, std::size_t n, unsigned threads = 1);
+
+/// Whether (px, py) is inside convex polygon h (counter-clockwise) by a margin far above rounding:
+/// then it is inside any hull that contains h and is no point of that hull's boundary.
+bool deepInside(const Hull& h, double px, double py);
+
 /// Every point on the boundary of the points' convex hull (vertices and the points on its edges), and
 /// possibly a few more, without duplicates removed: a filter by the polygon of the extreme points in
 /// eight directions, then a monotone chain that keeps collinear points. Linear work on `threads`

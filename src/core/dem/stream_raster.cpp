@@ -14,7 +14,12 @@ namespace detail {
 
 StreamRaster::StreamRaster(const RasterGrid& grid, const Hull& hull, double max_edge, double nodata,
                            RowSink sink, unsigned threads)
-    : grid_(grid), hull_(hull), max_edge_(max_edge), nodata_(nodata), sink_(std::move(sink)), threads_(threads) {}
+    : grid_(grid),
+      hull_(hull),
+      max_edge_(max_edge),
+      nodata_(nodata),
+      sink_(std::move(sink)),
+      threads_(threads) {}
 
 void StreamRaster::hold(std::size_t rows) {
   rows = std::min(rows, grid_.rows - next_);

@@ -26,27 +26,31 @@ std::uint64_t edgeKey(index_t a, index_t b) {
 /// The resident points and the strip merged into one set in ascending global index; `at` gets the
 /// resident points' positions in it. The resident set is small: each strip point moves by the number
 /// of resident points before it, found once per block.
-StripPoints mergeByIndex(StripPoints& resident, StripPoints& strip, std::vector<index_t>& at, unsigned threads) {
+StripPoints mergeByIndex(StripPoints& resident, StripPoints& strip, std::vector<index_t>& at,
+                         unsigned threads) {
   at.clear();
   if (resident.size() == 0) return std::move(strip);
   StripPoints out;
   const std::size_t nr = resident.size(), ns = strip.size(), n = nr + ns;
   out.x.resize(n), out.y.resize(n), out.value.resize(n), out.index.resize(n);
   auto put = [&](const StripPoints& from, std::size_t i, std::size_t to) {
-    out.x[to] = from.x[i], out.y[to] = from.y[i], out.value[to] = from.value[i], out.index[to] = from.index[i];
+    out.x[to] = from.x[i], out.y[to] = from.y[i], out.value[to] = from.value[i],
+    out.index[to] = from.index[i];
   };
   parallelFor(ns, workerCount(ns, threads, 1 << 16), [&](std::size_t b, std::size_t e, unsigned) {
     if (b == e) return;
-    std::size_t r = std::size_t(std::lower_bound(resident.index.begin(), resident.index.end(), strip.index[b]) -
-                                resident.index.begin());
+    std::size_t r =
+        std::size_t(std::lower_bound(resident.index.begin(), resident.index.end(), strip.index[b]) -
+                    resident.index.begin());
     for (std::size_t j = b; j < e; ++j) {
       while (r < nr && resident.index[r] < strip.index[j]) ++r;
       put(strip, j, j + r);
     }
   });
   for (std::size_t i = 0; i < nr; ++i) {
-    at.push_back(index_t(i + std::size_t(std::lower_bound(strip.index.begin(), strip.index.end(), resident.index[i]) -
-                                         strip.index.begin())));
+    at.push_back(
+        index_t(i + std::size_t(std::lower_bound(strip.index.begin(), strip.index.end(), resident.index[i]) -
+                                strip.index.begin())));
     put(resident, i, at.back());
   }
   resident.clear(), strip.clear();
@@ -119,7 +123,8 @@ class EdgeIndex {
       index_t next = kNoTriangle;
       for (index_t e = start_[c]; e < start_[c + 1] && next == kNoTriangle; ++e) {
         bool reversed = false;  // some triangle of v holds next -> v: its vertex before v is next
-        for (index_t g = start_[c]; g < start_[c + 1] && !reversed; ++g) reversed = entries_[g].prev == entries_[e].next;
+        for (index_t g = start_[c]; g < start_[c + 1] && !reversed; ++g)
+          reversed = entries_[g].prev == entries_[e].next;
         if (!reversed) next = entries_[e].next;
       }
       if (next == kNoTriangle) throw Error("dw::dem: internal consistency failure (open boundary)");
@@ -135,12 +140,13 @@ class EdgeIndex {
   };
 
   index_t idOf(index_t v) const {
-    if (id_[v] == kNoTriangle) throw Error("dw::dem: internal consistency failure (edge of an uncovered vertex)");
+    if (id_[v] == kNoTriangle)
+      throw Error("dw::dem: internal consistency failure (edge of an uncovered vertex)");
     return id_[v];
   }
 
-  static std::vector<index_t> trianglesTouching(const std::vector<index_t>& t, const std::vector<char>& covered,
-                                                unsigned threads) {
+  static std::vector<index_t> trianglesTouching(const std::vector<index_t>& t,
+                                                const std::vector<char>& covered, unsigned threads) {
     const std::size_t nt = t.size() / 3;
     const unsigned workers = workerCount(nt, threads, 1 << 16);
     std::vector<std::vector<index_t>> per(workers);
@@ -175,10 +181,12 @@ struct LocalFrontier {
   bool has(index_t a, index_t b) const { return keys.count(edgeKey(a, b)) != 0; }
 };
 
-LocalFrontier localFrontier(const StripPoints& pts, const std::vector<std::pair<std::uint64_t, std::uint64_t>>& f) {
+LocalFrontier localFrontier(const StripPoints& pts,
+                            const std::vector<std::pair<std::uint64_t, std::uint64_t>>& f) {
   auto local = [&](std::uint64_t g) {
     const auto it = std::lower_bound(pts.index.begin(), pts.index.end(), g);
-    if (it == pts.index.end() || *it != g) throw Error("dw::dem: internal consistency failure (frontier vertex)");
+    if (it == pts.index.end() || *it != g)
+      throw Error("dw::dem: internal consistency failure (frontier vertex)");
     return index_t(it - pts.index.begin());
   };
   LocalFrontier out;
@@ -194,12 +202,13 @@ std::vector<unsigned char> labelFinalOrOpen(const StripPoints& p, const std::vec
                                             const Hull* hull, unsigned threads) {
   const FinalTriangleTest isFinal(seam, hull);
   std::vector<unsigned char> label(t.size() / 3);
-  parallelFor(label.size(), workerCount(label.size(), threads, 16384), [&](std::size_t b, std::size_t e, unsigned) {
-    for (std::size_t k = b; k < e; ++k) {
-      const index_t u = t[3 * k], v = t[3 * k + 1], w = t[3 * k + 2];
-      label[k] = isFinal(p.x[u], p.y[u], p.x[v], p.y[v], p.x[w], p.y[w]) ? kFinal : kOpen;
-    }
-  });
+  parallelFor(label.size(), workerCount(label.size(), threads, 16384),
+              [&](std::size_t b, std::size_t e, unsigned) {
+                for (std::size_t k = b; k < e; ++k) {
+                  const index_t u = t[3 * k], v = t[3 * k + 1], w = t[3 * k + 2];
+                  label[k] = isFinal(p.x[u], p.y[u], p.x[v], p.y[v], p.x[w], p.y[w]) ? kFinal : kOpen;
+                }
+              });
   return label;
 }
 
@@ -227,12 +236,15 @@ void labelUnderFinal(const std::vector<index_t>& t, const EdgeIndex& edges, cons
 
 /// The vertices the step asks edges about: the resident points, the vertices of triangles the test
 /// leaves open, and the points on the hull's boundary.
-std::vector<char> coveredVertices(std::size_t n, const std::vector<index_t>& t, const std::vector<unsigned char>& label,
-                                  const std::vector<index_t>& resident_at, const std::vector<index_t>& hull_points,
-                                  unsigned threads) {
+std::vector<char> coveredVertices(std::size_t n, const std::vector<index_t>& t,
+                                  const std::vector<unsigned char>& label,
+                                  const std::vector<index_t>& resident_at,
+                                  const std::vector<index_t>& hull_points, unsigned threads) {
   std::vector<char> covered(n, 0);
   for (const index_t v : resident_at) covered[v] = 1;
-  for (const index_t v : gatherTriangles(t, [&](std::size_t k) { return label[k] == kOpen; }, threads)) covered[v] = 1;
+  for (const index_t v : gatherTriangles(
+           t, [&](std::size_t k) { return label[k] == kOpen; }, threads))
+    covered[v] = 1;
   for (const index_t v : hull_points) covered[v] = 1;
   return covered;
 }
@@ -281,8 +293,10 @@ void StreamTin::addStrip(StripPoints&& strip, double seam, const FinalTriangles&
   const EdgeIndex edges(t, coveredVertices(n, t, label, resident_at, hull_points, threads_), threads_);
   const LocalFrontier old = localFrontier(pts, frontier_);
   labelUnderFinal(t, edges, old, label);
-  const std::vector<index_t> fin = gatherTriangles(t, [&](std::size_t k) { return label[k] == kFinal; }, threads_);
-  const std::vector<index_t> open = gatherTriangles(t, [&](std::size_t k) { return label[k] == kOpen; }, threads_);
+  const std::vector<index_t> fin = gatherTriangles(
+      t, [&](std::size_t k) { return label[k] == kFinal; }, threads_);
+  const std::vector<index_t> open = gatherTriangles(
+      t, [&](std::size_t k) { return label[k] == kOpen; }, threads_);
   times_.classify_s += since(clock);
   if (emit && !fin.empty()) emit(pts, fin);
   times_.emit_s += since(clock);
@@ -301,7 +315,9 @@ void StreamTin::addStrip(StripPoints&& strip, double seam, const FinalTriangles&
   // with none across is a boundary edge. Only such edges need the look-up.
   std::vector<char> boundary(n, 0);
   edges.markBoundary(lowestVertex(pts, hull_points, edges), boundary);
-  auto mayBeFrontier = [&](index_t a, index_t b) { return (keep[a] && keep[b]) || (boundary[a] && boundary[b]); };
+  auto mayBeFrontier = [&](index_t a, index_t b) {
+    return (keep[a] && keep[b]) || (boundary[a] && boundary[b]);
+  };
   std::vector<std::pair<index_t, index_t>> found;
   for (const auto& e : old.edges)
     if (isFrontier(e.first, e.second)) found.push_back(e);

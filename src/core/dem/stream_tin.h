@@ -21,8 +21,8 @@
 #include <vector>
 
 #include "core/dem/stream_frontier.h"
-#include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 #include "pcl_delaunay_walk/core/graph/types.h"
+#include "pcl_delaunay_walk/core/tin/delaunay_tin.h"
 
 namespace dw {
 namespace dem {
