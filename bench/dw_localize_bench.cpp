@@ -613,6 +613,8 @@ Options parse(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Line-buffered, so that a run cut short by a timeout still shows the stages it finished.
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
   try {
     const Options o = parse(argc, argv);
     if (!o.kitti.empty()) {
