@@ -1,6 +1,7 @@
 #include "pcl_delaunay_walk/core/graph/delaunay_graph.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -21,21 +22,33 @@ namespace {
 }
 }  // namespace
 
-void DelaunayGraph::validate() const {
+namespace {
+/// Runs check(v) for every vertex on up to `threads` threads, in contiguous blocks. The first error of
+/// the lowest failing block is rethrown, which is the error of the lowest failing vertex: the
+/// message is the same as a one-thread pass gives.
+template <typename Check>
+void checkEachVertex(std::size_t n, unsigned threads, Check&& check) {
+  parallelFor(n, workerCount(n, threads, 1u << 15), [&](std::size_t b, std::size_t e, unsigned) {
+    for (std::size_t v = b; v < e; ++v) check(v);
+  });
+}
+}  // namespace
+
+void DelaunayGraph::validate(unsigned num_threads) const {
   const std::size_t n = points.size();
   if (dimension < 0 || dimension > 3) broken("dimension out of range");
   for (double o : origin)
     if (!std::isfinite(o)) broken("non-finite origin");
   if (offsets.size() != n + 1 || offsets.front() != 0) broken("offsets size");
   if (offsets.back() != edges.size()) broken("offsets do not end at the edge count");
-  for (std::size_t v = 0; v < n; ++v) {
+  checkEachVertex(n, num_threads, [&](std::size_t v) {
     if (offsets[v] > offsets[v + 1]) broken("offsets not monotonic at vertex " + std::to_string(v));
     if (!std::isfinite(points[v].x) || !std::isfinite(points[v].y) || !std::isfinite(points[v].z))
       broken("non-finite vertex " + std::to_string(v));
-  }
+  });
   // One pass over the records (a loaded file's largest array), vertex by vertex: the offsets checked
   // above cover [0, edges.size()) exactly, so every record is seen once.
-  for (std::size_t v = 0; v < n; ++v) {
+  checkEachVertex(n, num_threads, [&](std::size_t v) {
     for (index_t k = offsets[v]; k < offsets[v + 1]; ++k) {
       const EdgeRecord& e = edges[k];
       if (e.j >= n) broken("edge neighbour out of range");
@@ -44,29 +57,29 @@ void DelaunayGraph::validate() const {
       if (k > offsets[v] && !(edges[k - 1].m <= e.m))  // the walk's early stop relies on this order
         broken("edges of vertex " + std::to_string(v) + " not sorted by length");
     }
-  }
+  });
   if (!safe_radius2.empty()) {
     if (safe_radius2.size() != n) broken("safe radii size");
-    for (std::size_t v = 0; v < n; ++v) {
+    checkEachVertex(n, num_threads, [&](std::size_t v) {
       float r = INFINITY;
       for (index_t e = offsets[v]; e < offsets[v + 1]; ++e) r = std::min(r, edges[e].m);
       // A radius larger than half the nearest-neighbour distance would stop walks at the wrong vertex.
       if (!(safe_radius2[v] >= 0.f) || (safe_radius2[v] > 0.f && !(double(safe_radius2[v]) < double(r) * r)))
         broken("safe radius too large at vertex " + std::to_string(v));
-    }
+    });
   }
   if (originals_offsets.size() != n + 1 || originals_offsets.front() != 0 ||
       originals_offsets.back() != originals.size())
     broken("originals offsets");
   const std::size_t num_input = input_to_vertex.size();
-  for (std::size_t v = 0; v < n; ++v) {
+  checkEachVertex(n, num_threads, [&](std::size_t v) {
     if (originals_offsets[v] >= originals_offsets[v + 1]) broken("vertex without an input point");
     for (index_t k = originals_offsets[v]; k < originals_offsets[v + 1]; ++k) {
       const index_t i = originals[k];
       if (i >= num_input || input_to_vertex[i] != v) broken("originals do not match input_to_vertex");
       if (k > originals_offsets[v] && originals[k - 1] >= i) broken("originals not ascending");
     }
-  }
+  });
   std::size_t mapped = 0;
   for (index_t v : input_to_vertex) {
     if (v == kInvalidIndex) continue;
@@ -316,27 +329,38 @@ bool shorterEdge(const EdgeRecord& a, const EdgeRecord& b) {
 }
 }  // namespace
 
-void sortNeighbourhoods(DelaunayGraph& g) {
+void sortNeighbourhoods(DelaunayGraph& g, unsigned num_threads) {
   // Runs on loaded data before validate(): leave anything malformed (bad offsets, NaN lengths, which
-  // would break std::sort's ordering contract) untouched for validate() to report.
+  // would break std::sort's ordering contract) untouched for validate() to report. The offsets are
+  // checked whole first, so that the neighbourhoods sorted in parallel cannot overlap.
   const std::size_t nv = g.offsets.size() - (g.offsets.empty() ? 0 : 1);
-  for (std::size_t v = 0; v < nv; ++v) {
-    if (g.offsets[v] > g.offsets[v + 1] || g.offsets[v + 1] > g.edges.size()) return;
-    const auto first = g.edges.begin() + g.offsets[v], last = g.edges.begin() + g.offsets[v + 1];
-    if (std::is_sorted(first, last, shorterEdge)) continue;
-    if (std::any_of(first, last, [](const EdgeRecord& e) { return !std::isfinite(e.m); })) return;
-    std::sort(first, last, shorterEdge);
-  }
+  const unsigned workers = workerCount(nv, num_threads, 1u << 15);
+  std::atomic<bool> malformed{false};
+  parallelFor(nv, workers, [&](std::size_t b, std::size_t e, unsigned) {
+    for (std::size_t v = b; v < e && !malformed.load(std::memory_order_relaxed); ++v)
+      if (g.offsets[v] > g.offsets[v + 1] || g.offsets[v + 1] > g.edges.size()) malformed = true;
+  });
+  if (malformed) return;
+  parallelFor(nv, workers, [&](std::size_t b, std::size_t e, unsigned) {
+    for (std::size_t v = b; v < e; ++v) {
+      const auto first = g.edges.begin() + g.offsets[v], last = g.edges.begin() + g.offsets[v + 1];
+      if (std::is_sorted(first, last, shorterEdge)) continue;
+      if (std::any_of(first, last, [](const EdgeRecord& r) { return !std::isfinite(r.m); })) continue;
+      std::sort(first, last, shorterEdge);
+    }
+  });
 }
 
-void computeSafeRadii(DelaunayGraph& g) {
+void computeSafeRadii(DelaunayGraph& g, unsigned num_threads) {
   const std::size_t n = g.points.size();
   g.safe_radius2.assign(n, 0.f);
-  for (std::size_t v = 0; v < n; ++v) {
-    float r = INFINITY;
-    for (index_t e = g.offsets[v]; e < g.offsets[v + 1]; ++e) r = std::min(r, g.edges[e].m);
-    g.safe_radius2[v] = safeRadius2(r);
-  }
+  parallelFor(n, workerCount(n, num_threads, 1u << 15), [&](std::size_t b, std::size_t e, unsigned) {
+    for (std::size_t v = b; v < e; ++v) {
+      float r = INFINITY;
+      for (index_t k = g.offsets[v]; k < g.offsets[v + 1]; ++k) r = std::min(r, g.edges[k].m);
+      g.safe_radius2[v] = safeRadius2(r);
+    }
+  });
 }
 
 }  // namespace dw

@@ -76,6 +76,58 @@ TEST(GraphIo, EveryByteFlipIsAnError) {
   }
 }
 
+TEST(GraphIo, VersionOneFilesStillLoad) {
+  // Version 1 differs only in its payload checksum (one chain instead of per-block hashes).
+  const DelaunayGraph g = smallGraph(500);
+  auto v1 = serializeGraph(g);
+  const std::uint32_t one = 1;
+  std::memcpy(v1.data() + 8, &one, 4);  // the version field follows the 8-byte magic
+  resealGraphFile(v1);
+  expectEqual(g, deserializeGraph(v1.data(), v1.size()));
+  auto flipped = v1;
+  flipped[v1.size() / 2] ^= 0x10;
+  EXPECT_THROW(deserializeGraph(flipped.data(), flipped.size()), GraphFileError);
+  auto other_sum = v1;  // a version-2 checksum under a version-1 header is a mismatch
+  const std::uint32_t two = kGraphFileVersion;
+  std::memcpy(other_sum.data() + 8, &two, 4);
+  resealGraphFile(other_sum);
+  std::memcpy(other_sum.data() + 8, &one, 4);
+  EXPECT_THROW(deserializeGraph(other_sum.data(), other_sum.size()), GraphFileError);
+}
+
+TEST(GraphIo, FlipsInEveryChecksumBlockAreErrors) {
+  // Large enough for several 1 MiB checksum blocks, verified on several threads.
+  const DelaunayGraph g = smallGraph(40000);
+  const auto bytes = serializeGraph(g);
+  ASSERT_GT(bytes.size(), std::size_t(3) << 20);
+  expectEqual(g, deserializeGraph(bytes.data(), bytes.size()));
+  for (std::size_t pos : {std::size_t(200), (std::size_t(1) << 20) + 104, (std::size_t(2) << 20) + 7,
+                          bytes.size() - 1}) {
+    auto bad = bytes;
+    bad[pos] ^= 0x01;
+    EXPECT_THROW(deserializeGraph(bad.data(), bad.size()), GraphFileError) << "flip at " << pos;
+  }
+}
+
+TEST(GraphIo, ValidateNamesTheSameFirstErrorOnAnyThreadCount) {
+  DelaunayGraph g = smallGraph(120000);
+  g.validate(1);
+  g.validate(4);
+  const std::size_t late = g.numVertices() - 10, early = g.numVertices() / 2;
+  g.points[late].x = std::nanf("");
+  g.points[early].y = std::nanf("");
+  auto message = [&](unsigned threads) -> std::string {
+    try {
+      g.validate(threads);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "valid";
+  };
+  EXPECT_NE(message(1).find("non-finite vertex " + std::to_string(early)), std::string::npos) << message(1);
+  for (unsigned threads : {2u, 3u, 4u, 0u}) EXPECT_EQ(message(1), message(threads)) << threads << " threads";
+}
+
 TEST(GraphIo, ForeignAndMissingFiles) {
   const std::string path = std::string(DW_BINARY_DIR) + "/test_graph_io_foreign.graph";
   {

@@ -137,7 +137,9 @@ inline void expectSameAnswer(pcl::Indices got_i, std::vector<float> got_d, pcl::
     ASSERT_EQ(got_d[i], ref_d[i]) << what << ": distance at rank " << i;
     const bool tied =
         (i > 0 && ref_d[i - 1] == ref_d[i]) || (i + 1 < ref_d.size() && ref_d[i + 1] == ref_d[i]);
-    if (!tied) EXPECT_EQ(got_i[i], ref_i[i]) << what << ": index at rank " << i;
+    if (!tied) {
+      EXPECT_EQ(got_i[i], ref_i[i]) << what << ": index at rank " << i;
+    }
   }
   std::vector<int> s(got_i.begin(), got_i.end());
   std::sort(s.begin(), s.end());

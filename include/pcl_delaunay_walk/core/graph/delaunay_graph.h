@@ -60,8 +60,9 @@ struct DelaunayGraph {
             static_cast<float>(z - origin[2])};
   }
 
-  /// Throws dw::Error naming the first broken invariant. Cost O(V + E).
-  void validate() const;
+  /// Throws dw::Error naming the first broken invariant (the same one for any thread count). Cost
+  /// O(V + E), on `num_threads` threads (0: hardware concurrency).
+  void validate(unsigned num_threads = 1) const;
 
   /// Bytes held by the arrays (what a saved file holds, roughly).
   std::size_t memoryBytes() const;
@@ -77,15 +78,15 @@ void assembleEdges(DelaunayGraph& graph, std::vector<std::pair<index_t, index_t>
 
 /// Puts every neighbourhood in the documented order (shortest edge first), sorting only those that
 /// are not: graph files written before this order existed load into the same invariants. O(E) when
-/// already sorted.
-void sortNeighbourhoods(DelaunayGraph& graph);
+/// already sorted. On `num_threads` threads (0: hardware concurrency).
+void sortNeighbourhoods(DelaunayGraph& graph, unsigned num_threads = 1);
 
 /// Fills graph.safe_radius2 from the edges. The nearest other vertex of v is always a Delaunay neighbour
 /// (the nearest-neighbour graph is a subgraph of the Delaunay graph), at distance 2 r_v with
 /// r_v = min_j m_vj; any q with |q - x_v| < r_v is then strictly nearer to x_v than to every x_j, since
 /// |q - x_j| >= 2 r_v - |q - x_v| > |q - x_v|. The stored value is r_v^2 shrunk by 1e-5 (relative), far
 /// more than the float rounding of m and of the walk's distance; balls too small to hold in float
-/// precision (r^2 < 1e-30) are disabled (0). O(E).
-void computeSafeRadii(DelaunayGraph& graph);
+/// precision (r^2 < 1e-30) are disabled (0). O(E), on `num_threads` threads (0: hardware concurrency).
+void computeSafeRadii(DelaunayGraph& graph, unsigned num_threads = 1);
 
 }  // namespace dw

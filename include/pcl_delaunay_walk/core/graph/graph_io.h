@@ -17,7 +17,10 @@
 
 namespace dw {
 
-constexpr std::uint32_t kGraphFileVersion = 1;
+/// The version saveGraph writes. Version 2 differs from 1 only in its payload checksum (per 1 MiB
+/// block, so loading verifies on all threads); files of either version load.
+constexpr std::uint32_t kGraphFileVersion = 2;
+constexpr std::uint32_t kOldestGraphFileVersion = 1;
 
 /// Serialises to bytes / a file. The file is written to a temporary beside `path` and renamed over it
 /// once complete (dw::SafeOutputFile): on an I/O failure dw::Error names the file and the reason, and
@@ -39,10 +42,12 @@ enum class GraphStorage {
 /// process (a mapped page past a new end faults; a rewritten page would bypass the checks).
 DelaunayGraph loadGraph(const std::string& path, GraphStorage storage = GraphStorage::Mapped);
 
-/// The file format's checksum (64-bit word-wise multiply-xorshift) over n bytes.
+/// The file format's checksum (64-bit word-wise multiply-xorshift) over n bytes: the header's, and
+/// version 1's payload checksum.
 std::uint64_t graphFileChecksum(const std::uint8_t* data, std::size_t n);
 
-/// Recomputes both checksums of a serialised graph after its bytes were edited (tests and fuzzers use it
+/// Recomputes both checksums of a serialised graph, by the version its header names, after its bytes
+/// were edited (tests and fuzzers use it
 /// so that the structural checks, not the checksums, are what meets a forged file). No-op on a buffer
 /// shorter than the header.
 void resealGraphFile(std::vector<std::uint8_t>& file);
