@@ -29,5 +29,5 @@ timeout 300 "$BUILD/bench/dw_localize_bench" --kitti "$DEPS/data/scans" --map-po
 # Map maintenance and odometry run on the scene's scans, not on its map: a small map keeps the
 # second process's set-up short.
 echo "== sliding-window map maintenance and odometry (120k-point scans)"
-timeout 150 "$BUILD/bench/dw_localize_bench" --map-points 1M --scan-points 120k --frames 16 --threads 16 \
+timeout 240 "$BUILD/bench/dw_localize_bench" --map-points 1M --scan-points 120k --frames 16 --threads 16 \
   --odometry 2>&1 | tee "$OUT/odometry_bench.txt"
