@@ -272,6 +272,17 @@ void timeGraphFile(const dw::DelaunayGraph& g, const std::string& path) {
               mb, mapped.numVertices(), save_s, map_s, mb / map_s, copy_s, mb / copy_s);
 }
 
+/// The map graph's neighbourhood sizes: a walk step reads one whole neighbourhood.
+void printDegrees(const dw::DelaunayGraph& g) {
+  std::vector<dw::index_t> degree(g.numVertices());
+  for (std::size_t v = 0; v < degree.size(); ++v) degree[v] = g.offsets[v + 1] - g.offsets[v];
+  std::sort(degree.begin(), degree.end());
+  if (degree.empty()) return;
+  auto at = [&](double q) { return degree[std::min(degree.size() - 1, std::size_t(q * double(degree.size())))]; };
+  std::printf("map graph: %zu vertices, mean degree %.1f, median %u, p99 %u, max %u\n", degree.size(),
+              double(g.numDirectedEdges()) / double(degree.size()), at(0.5), at(0.99), degree.back());
+}
+
 void benchScene(const Scene& s, const Options& o) {
   std::vector<RunResult> runs;
   {
@@ -286,6 +297,7 @@ void benchScene(const Scene& s, const Options& o) {
         std::make_shared<const dw::CallerMetricSearch>(g, s.map, std::vector<std::int32_t>{}),
         dw::StartStrategy::PnnOptimized, 4.0 * o.max_distance);  // as dw::Localizer sets it
     r.build_s = since(t0);
+    printDegrees(*g);
     if (!o.graph_file.empty()) {
       try {  // a full disk costs this line, not the tables
         timeGraphFile(*g, o.graph_file);
