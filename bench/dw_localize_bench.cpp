@@ -33,7 +33,6 @@
 #include <vector>
 
 #include "app_args.h"
-#include "synthetic_street.h"
 #include "pcl_delaunay_walk/core/graph/dynamic_delaunay_graph.h"
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/core/graph/graph_io.h"
@@ -43,6 +42,7 @@
 #include "pcl_delaunay_walk/core/registration/walk_correspondence_search.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
 #include "pcl_delaunay_walk/core/util/point_file.h"
+#include "synthetic_street.h"
 
 #ifdef DW_HAVE_NANOFLANN_PEER
 #include <nanoflann.hpp>
@@ -99,7 +99,8 @@ Scene makeSynthetic(const Options& o) {
   step(0, 3) = 1.0;  // 10 m/s at 10 Hz
   for (std::size_t k = 0; k < o.frames; ++k) {
     s.truth.push_back(pose);
-    s.scans.push_back(dw_bench::cutStreetScan(s.map, pose, 60.0, o.scan_points, o.seed + unsigned(k), o.scan_order));
+    s.scans.push_back(
+        dw_bench::cutStreetScan(s.map, pose, 60.0, o.scan_points, o.seed + unsigned(k), o.scan_order));
     pose = pose * step;
   }
   std::printf("scene: %s, %zu scans of ~%zu points, made in %.2f s\n", s.name.c_str(), s.scans.size(),
@@ -267,9 +268,10 @@ void timeGraphFile(const dw::DelaunayGraph& g, const std::string& path) {
   std::remove(path.c_str());
   if (!mapped.isMapped() || copied.numDirectedEdges() != mapped.numDirectedEdges())
     throw dw::Error("the mapped and the copied load disagree");
-  std::printf("map graph file: %.1f MB, %zu vertices, saved in %.3f s; loaded (checked) by mmap in %.3f s "
-              "(%.0f MB/s), by copy in %.3f s (%.0f MB/s)\n",
-              mb, mapped.numVertices(), save_s, map_s, mb / map_s, copy_s, mb / copy_s);
+  std::printf(
+      "map graph file: %.1f MB, %zu vertices, saved in %.3f s; loaded (checked) by mmap in %.3f s "
+      "(%.0f MB/s), by copy in %.3f s (%.0f MB/s)\n",
+      mb, mapped.numVertices(), save_s, map_s, mb / map_s, copy_s, mb / copy_s);
 }
 
 /// The map graph's neighbourhood sizes: a walk step reads one whole neighbourhood.
@@ -278,7 +280,9 @@ void printDegrees(const dw::DelaunayGraph& g) {
   for (std::size_t v = 0; v < degree.size(); ++v) degree[v] = g.offsets[v + 1] - g.offsets[v];
   std::sort(degree.begin(), degree.end());
   if (degree.empty()) return;
-  auto at = [&](double q) { return degree[std::min(degree.size() - 1, std::size_t(q * double(degree.size())))]; };
+  auto at = [&](double q) {
+    return degree[std::min(degree.size() - 1, std::size_t(q * double(degree.size())))];
+  };
   std::printf("map graph: %zu vertices, mean degree %.1f, median %u, p99 %u, max %u\n", degree.size(),
               double(g.numDirectedEdges()) / double(degree.size()), at(0.5), at(0.99), degree.back());
 }
@@ -426,7 +430,8 @@ void benchMapMaintenance(const Scene& s, double voxel, double range) {
   std::printf("%-34s %12s %14s %14s %12s %14s %14s\n", "structure", "inserted", "insert pts/s",
               "(thread cpu)", "removed", "remove pts/s", "(thread cpu)");
   auto rate = [](std::size_t n, double t) { return t > 0 ? double(n) / t : 0.0; };
-  auto row = [&](const char* name, double tin, double tin_cpu, std::size_t out, double tout, double tout_cpu) {
+  auto row = [&](const char* name, double tin, double tin_cpu, std::size_t out, double tout,
+                 double tout_cpu) {
     std::printf("%-34s %12zu %14.3g %14.3g %12zu %14.3g %14.3g\n", name, inserted, rate(inserted, tin),
                 rate(inserted, tin_cpu), out, rate(out, tout), rate(out, tout_cpu));
   };
@@ -462,8 +467,8 @@ void benchMapMaintenance(const Scene& s, double voxel, double range) {
     }
     row("nanoflann " NANOFLANN_VERSION_STRING " incremental", nin, nin_cpu, tree_removed, nout, nout_cpu);
     if (tree_removed < removed)
-      std::printf("(nanoflann: %zu of the %zu removals timed, then the %.0f s budget ran out)\n", tree_removed,
-                  removed, kRemovalBudget);
+      std::printf("(nanoflann: %zu of the %zu removals timed, then the %.0f s budget ran out)\n",
+                  tree_removed, removed, kRemovalBudget);
   }
 #endif
 }
@@ -497,8 +502,7 @@ void benchOdometry(const Scene& s) {
       "per-frame ms p50 %.2f p95 %.2f max %.2f (thread cpu p50 %.2f); largest translation drift %.3f m;"
       " map %zu points; walk graph %.1f ms/frame, insert %.3g points/s, remove %.3g points/s\n",
       percentile(ms, 0.5), percentile(ms, 0.95), *std::max_element(ms.begin(), ms.end()),
-      percentile(cpu_ms, 0.5), worst,
-      odo.map().size(), 1e3 * st.graph_seconds / double(s.scans.size()),
+      percentile(cpu_ms, 0.5), worst, odo.map().size(), 1e3 * st.graph_seconds / double(s.scans.size()),
       st.insert_seconds > 0 ? double(st.inserted) / st.insert_seconds : 0.0,
       st.remove_seconds > 0 ? double(st.removed) / st.remove_seconds : 0.0);
 }
@@ -593,12 +597,11 @@ void benchNanoflannOdometry(const Scene& s) {
     const Eigen::Matrix4d rel = s.truth[0].inverse() * s.truth[k];
     worst = std::max(worst, (pose.topRightCorner<3, 1>() - rel.topRightCorner<3, 1>()).norm());
   }
-  std::printf(
-      "the same odometry over nanoflann " NANOFLANN_VERSION_STRING
-      "'s incremental tree: per-frame ms p50 %.2f p95 %.2f max %.2f (thread cpu p50 %.2f); largest"
-      " translation drift %.3f m\n",
-      percentile(ms, 0.5), percentile(ms, 0.95), *std::max_element(ms.begin(), ms.end()),
-      percentile(cpu_ms, 0.5), worst);
+  std::printf("the same odometry over nanoflann " NANOFLANN_VERSION_STRING
+              "'s incremental tree: per-frame ms p50 %.2f p95 %.2f max %.2f (thread cpu p50 %.2f); largest"
+              " translation drift %.3f m\n",
+              percentile(ms, 0.5), percentile(ms, 0.95), *std::max_element(ms.begin(), ms.end()),
+              percentile(cpu_ms, 0.5), worst);
 }
 #endif
 
@@ -630,7 +633,8 @@ Options parse(int argc, char** argv) {
       o.graph_file = value();
     else if (a == "--scan-order") {
       const std::string v = value();
-      if (v != "sensor" && v != "random") throw dw::Error("--scan-order takes sensor or random, not '" + v + "'");
+      if (v != "sensor" && v != "random")
+        throw dw::Error("--scan-order takes sensor or random, not '" + v + "'");
       o.scan_order = v == "sensor" ? dw_bench::ScanOrder::kSensor : dw_bench::ScanOrder::kRandom;
     } else if (a == "--no-pcl")
       o.pcl = false;

@@ -112,7 +112,8 @@ void resealGraphFile(std::vector<std::uint8_t>& f) {
   if (f.size() < sizeof(Header)) return;
   std::uint32_t version;
   std::memcpy(&version, f.data() + offsetof(Header, version), 4);
-  const std::uint64_t payload = payloadChecksum(version, f.data() + sizeof(Header), f.size() - sizeof(Header));
+  const std::uint64_t payload =
+      payloadChecksum(version, f.data() + sizeof(Header), f.size() - sizeof(Header));
   std::memcpy(f.data() + offsetof(Header, payload_checksum), &payload, 8);
   const std::uint64_t header = checksumImpl(f.data(), offsetof(Header, header_checksum));
   std::memcpy(f.data() + offsetof(Header, header_checksum), &header, 8);
@@ -213,7 +214,8 @@ Header checkedHeader(const std::uint8_t* data, std::size_t size) {
     fail("version " + std::to_string(h.version) + " is not supported (this build reads versions " +
          std::to_string(kOldestGraphFileVersion) + " to " + std::to_string(kGraphFileVersion) + ")");
   if (h.header_size != sizeof(Header) || h.dimension > 3) fail("malformed header");
-  if (h.flags != 0) fail("unknown feature flags " + std::to_string(h.flags) + " for version " + std::to_string(h.version));
+  if (h.flags != 0)
+    fail("unknown feature flags " + std::to_string(h.flags) + " for version " + std::to_string(h.version));
   std::uint64_t expect = 0;
   expect = mulAdd(h.num_vertices, sizeof(Vec3f), expect);
   expect = mulAdd(h.num_vertices + 1, 2 * sizeof(index_t), expect);
@@ -233,7 +235,8 @@ Header checkedHeader(const std::uint8_t* data, std::size_t size) {
 /// Parses a checked buffer. With `file` (whose mapping holds the buffer) the edge records are a view
 /// of it: the header (104 bytes) and every array before them are whole 4-byte words, so the records
 /// start 4-byte aligned in a page-aligned mapping, as EdgeRecord needs. Otherwise they are copied.
-DelaunayGraph parseGraph(const std::uint8_t* data, std::size_t size, const std::shared_ptr<MappedFile>& file) {
+DelaunayGraph parseGraph(const std::uint8_t* data, std::size_t size,
+                         const std::shared_ptr<MappedFile>& file) {
   const Header h = checkedHeader(data, size);
   const std::uint8_t* p = data + sizeof(Header);
   DelaunayGraph g;

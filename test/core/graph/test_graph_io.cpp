@@ -1,9 +1,9 @@
 // Graph files: exact round trip; every truncation, byte flip and foreign file is a clean GraphFileError.
 #include <gtest/gtest.h>
 
+#include <cstddef>
 #include <cstdio>
 #include <cstring>
-#include <cstddef>
 #include <fstream>
 #include <memory>
 #include <random>
@@ -101,8 +101,8 @@ TEST(GraphIo, FlipsInEveryChecksumBlockAreErrors) {
   const auto bytes = serializeGraph(g);
   ASSERT_GT(bytes.size(), std::size_t(3) << 20);
   expectEqual(g, deserializeGraph(bytes.data(), bytes.size()));
-  for (std::size_t pos : {std::size_t(200), (std::size_t(1) << 20) + 104, (std::size_t(2) << 20) + 7,
-                          bytes.size() - 1}) {
+  for (std::size_t pos :
+       {std::size_t(200), (std::size_t(1) << 20) + 104, (std::size_t(2) << 20) + 7, bytes.size() - 1}) {
     auto bad = bytes;
     bad[pos] ^= 0x01;
     EXPECT_THROW(deserializeGraph(bad.data(), bad.size()), GraphFileError) << "flip at " << pos;
@@ -289,7 +289,8 @@ TEST(GraphIoMapped, LyingFilesAreRefusedWithThePath) {
   const DelaunayGraph built = smallGraph(300);
   const auto good = serializeGraph(built);
   const std::size_t n = built.numVertices(), header = 104;
-  const std::size_t offsets_at = header + n * sizeof(Vec3f), edges_at = offsets_at + (n + 1) * sizeof(index_t);
+  const std::size_t offsets_at = header + n * sizeof(Vec3f),
+                    edges_at = offsets_at + (n + 1) * sizeof(index_t);
   struct Lie {
     const char* what;
     std::size_t at;

@@ -83,7 +83,8 @@ TEST(GraphFileHostile, ForgedHeaderFields) {
     std::uint32_t value;
   };
   for (const Edit& e :
-       {Edit{"version 0", hdr::kVersion, 0}, Edit{"a newer version", hdr::kVersion, dw::kGraphFileVersion + 1},
+       {Edit{"version 0", hdr::kVersion, 0},
+        Edit{"a newer version", hdr::kVersion, dw::kGraphFileVersion + 1},
         Edit{"header size 0", hdr::kHeaderSize, 0}, Edit{"header size 200", hdr::kHeaderSize, 200},
         Edit{"dimension 4", hdr::kDimension, 4}, Edit{"dimension -1", hdr::kDimension, 0xFFFFFFFFu}}) {
     auto f = base;
