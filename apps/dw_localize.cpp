@@ -63,32 +63,10 @@ Options parse(int argc, char** argv) {
       o.save_map = value();
     else if (a == "--init-pose")
       o.init = dw_apps::parsePoseArgument(value()), o.init_given = true;
-    else if (a == "--poses")
-      o.poses = value();
-    else if (a == "--truth")
-      o.truth = value();
-    else if (a == "--plot")
-      o.plot = value();
-    else if (a == "--max-distance")
-      o.loc.icp.max_correspondence_distance = number();
-    else if (a == "--max-iterations")
-      o.loc.icp.max_iterations = int(dw_apps::parseCount(value(), "--max-iterations"));
-    else if (a == "--epsilon")
-      o.loc.icp.transformation_epsilon = number();
-    else if (a == "--voxel")
-      o.loc.voxel = number();
     else if (a == "--kernel-scale")
       o.loc.icp.kernel_scale = number();
-    else if (a == "--min-fitness")
-      o.loc.min_fitness = number();
-    else if (a == "--threads")
-      o.loc.num_threads = unsigned(dw_apps::parseNonNegative(value(), "--threads"));
-    else if (a == "--every")
-      o.every = dw_apps::parseCount(value(), "--every");
     else if (a == "--no-motion-model")
       o.loc.constant_velocity = false;
-    else if (a == "--quiet")
-      o.quiet = true;
     else if (a == "--gpu")
       o.gpu = true;
     else if (a == "--metric") {
@@ -112,10 +90,8 @@ Options parse(int argc, char** argv) {
     } else if (a == "-h" || a == "--help") {
       std::fputs(kUsage, stdout);
       std::exit(0);
-    } else if (!a.empty() && a[0] == '-') {
+    } else if (!dw_apps::parseFrameOption(a, value, o, o.loc)) {
       throw dw::Error("unknown option '" + a + "'");
-    } else {
-      o.scans.push_back(a);
     }
   }
   if (o.maps.empty()) throw dw::Error("no map (--map MAP)");

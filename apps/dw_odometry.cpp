@@ -41,39 +41,15 @@ Options parse(int argc, char** argv) {
       return argv[++i];
     };
     auto number = [&]() { return dw_apps::parseNonNegative(value(), ("value for " + a).c_str()); };
-    if (a == "--poses")
-      o.poses = value();
-    else if (a == "--truth")
-      o.truth = value();
-    else if (a == "--plot")
-      o.plot = value();
-    else if (a == "--voxel")
-      o.odo.voxel = number();
-    else if (a == "--max-range")
+    if (a == "--max-range")
       o.odo.max_range = number();
     else if (a == "--max-age")
       o.odo.max_age = unsigned(dw_apps::parseCount(value(), "--max-age"));
-    else if (a == "--max-distance")
-      o.odo.icp.max_correspondence_distance = number();
-    else if (a == "--max-iterations")
-      o.odo.icp.max_iterations = int(dw_apps::parseCount(value(), "--max-iterations"));
-    else if (a == "--epsilon")
-      o.odo.icp.transformation_epsilon = number();
-    else if (a == "--min-fitness")
-      o.odo.min_fitness = number();
-    else if (a == "--threads")
-      o.odo.num_threads = unsigned(dw_apps::parseNonNegative(value(), "--threads"));
-    else if (a == "--every")
-      o.every = dw_apps::parseCount(value(), "--every");
-    else if (a == "--quiet")
-      o.quiet = true;
     else if (a == "-h" || a == "--help") {
       std::fputs(kUsage, stdout);
       std::exit(0);
-    } else if (!a.empty() && a[0] == '-') {
+    } else if (!dw_apps::parseFrameOption(a, value, o, o.odo)) {
       throw dw::Error("unknown option '" + a + "'");
-    } else {
-      o.scans.push_back(a);
     }
   }
   if (o.scans.empty()) throw dw::Error("no scans");

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "app_args.h"
 #include "core/util/file_header_check.h"
 #include "pcl_delaunay_walk/core/las/las_reader.h"
 #include "pcl_delaunay_walk/core/registration/kitti_poses.h"
@@ -79,6 +80,42 @@ inline Eigen::Matrix4d parsePoseArgument(const std::string& arg) {
   const auto poses = dw::readKittiPoses(arg);
   if (poses.empty()) throw dw::Error("pose file '" + arg + "' has no pose");
   return poses.front();
+}
+
+/// The options dw_localize and dw_odometry share, for an app's Options `o` (members scans, poses,
+/// truth, plot, every, quiet) and its tracker's options `t` (members icp, voxel, min_fitness,
+/// num_threads). `a` is the argument at hand and `value()` takes the next one. Returns false when `a`
+/// is none of them; an argument that is not an option is a scan.
+template <class AppOptions, class TrackOptions, class Value>
+bool parseFrameOption(const std::string& a, Value&& value, AppOptions& o, TrackOptions& t) {
+  auto number = [&]() { return parseNonNegative(value(), ("value for " + a).c_str()); };
+  if (a == "--poses")
+    o.poses = value();
+  else if (a == "--truth")
+    o.truth = value();
+  else if (a == "--plot")
+    o.plot = value();
+  else if (a == "--max-distance")
+    t.icp.max_correspondence_distance = number();
+  else if (a == "--max-iterations")
+    t.icp.max_iterations = int(parseCount(value(), "--max-iterations"));
+  else if (a == "--epsilon")
+    t.icp.transformation_epsilon = number();
+  else if (a == "--voxel")
+    t.voxel = number();
+  else if (a == "--min-fitness")
+    t.min_fitness = number();
+  else if (a == "--threads")
+    t.num_threads = unsigned(parseNonNegative(value(), "--threads"));
+  else if (a == "--every")
+    o.every = parseCount(value(), "--every");
+  else if (a == "--quiet")
+    o.quiet = true;
+  else if (a.empty() || a[0] != '-')
+    o.scans.push_back(a);
+  else
+    return false;
+  return true;
 }
 
 struct FrameLog {
