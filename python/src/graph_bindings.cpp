@@ -90,8 +90,10 @@ vertex). Vertices are stored in a local float frame relative to `origin`.)doc");
       "replaced afterwards, but the file must not be rewritten in place. mapped=False copies them.");
   c.def_property_readonly("is_mapped", &dw::DelaunayGraph::isMapped,
                           "True when the edge records are a view of the loaded file's memory map.");
-  c.def("validate", &dw::DelaunayGraph::validate, py::call_guard<py::gil_scoped_release>(),
-        "Check every invariant; raises Error naming the first broken one.");
+  c.def("validate", &dw::DelaunayGraph::validate, py::arg("threads") = 0u,
+        py::call_guard<py::gil_scoped_release>(),
+        "Check every invariant on `threads` threads (0: all cores); raises Error naming the first broken "
+        "one, the same for any thread count.");
   c.def_property_readonly("num_vertices", &dw::DelaunayGraph::numVertices, "Distinct finite points.");
   c.def_property_readonly("num_directed_edges", &dw::DelaunayGraph::numDirectedEdges);
   c.def_property_readonly(

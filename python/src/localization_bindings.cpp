@@ -79,7 +79,45 @@ Eigen::Matrix4d poseArg(py::handle obj, const char* name) {
   return m;
 }
 
-class PyLocalizer {
+/// A tracker (dw::Localizer, dw::SlidingWindowOdometry) that Python threads may share: each call into
+/// it runs without the GIL and one at a time.
+template <class Tracker>
+class SharedTracker {
+ public:
+  /// Registers a scan, from `init` instead of the prediction when it is not None (set_pose first).
+  dw::FrameResult registerScan(py::handle scan, py::handle init) {
+    Points p = pointsArg(scan, "scan");
+    const dw::PointView view = pointView(p);
+    const bool set = !init.is_none();
+    const Eigen::Matrix4d start = set ? poseArg(init, "init") : Eigen::Matrix4d::Identity();
+    py::gil_scoped_release release;
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (set) tracker_->setPose(start);
+    return tracker_->registerScan(view);
+  }
+
+  void setPose(py::handle pose) {
+    const Eigen::Matrix4d m = poseArg(pose, "pose");
+    py::gil_scoped_release release;
+    std::lock_guard<std::mutex> lock(mutex_);
+    tracker_->setPose(m);
+  }
+
+  template <typename F>
+  auto locked(F&& f) {
+    py::gil_scoped_release release;
+    std::lock_guard<std::mutex> lock(mutex_);
+    return f(*tracker_);
+  }
+
+ protected:
+  std::unique_ptr<Tracker> tracker_;
+
+ private:
+  std::mutex mutex_;
+};
+
+class PyLocalizer : public SharedTracker<dw::Localizer> {
  public:
   PyLocalizer(py::handle map, const IcpArgs& icp, double voxel, bool constant_velocity, double min_fitness,
               double max_rmse, std::size_t normal_k, bool warm_start, unsigned threads) {
@@ -99,50 +137,21 @@ class PyLocalizer {
     if (py::isinstance<dw::DelaunayGraph>(map)) {
       const auto graph = map.cast<std::shared_ptr<dw::DelaunayGraph>>();
       py::gil_scoped_release release;
-      loc_ = std::make_unique<dw::Localizer>(dw::DelaunayGraph(*graph), o);
+      tracker_ = std::make_unique<dw::Localizer>(dw::DelaunayGraph(*graph), o);
     } else if (py::isinstance<py::str>(map) || py::hasattr(map, "__fspath__")) {
       const std::string path = py::str(py::module_::import("os").attr("fspath")(map));
       py::gil_scoped_release release;
-      loc_ = std::make_unique<dw::Localizer>(dw::Localizer::load(path, o));
+      tracker_ = std::make_unique<dw::Localizer>(dw::Localizer::load(path, o));
     } else {
       Points p = pointsArg(map, "map");
       const dw::PointView view = pointView(p);
       py::gil_scoped_release release;
-      loc_ = std::make_unique<dw::Localizer>(view, o);
+      tracker_ = std::make_unique<dw::Localizer>(view, o);
     }
   }
-
-  dw::FrameResult registerScan(py::handle scan, py::handle init) {
-    Points p = pointsArg(scan, "scan");
-    const dw::PointView view = pointView(p);
-    const bool set = !init.is_none();
-    const Eigen::Matrix4d start = set ? poseArg(init, "init") : Eigen::Matrix4d::Identity();
-    py::gil_scoped_release release;
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (set) loc_->setPose(start);
-    return loc_->registerScan(view);
-  }
-
-  void setPose(py::handle pose) {
-    const Eigen::Matrix4d m = poseArg(pose, "pose");
-    py::gil_scoped_release release;
-    std::lock_guard<std::mutex> lock(mutex_);
-    loc_->setPose(m);
-  }
-
-  template <typename F>
-  auto locked(F&& f) {
-    py::gil_scoped_release release;
-    std::lock_guard<std::mutex> lock(mutex_);
-    return f(*loc_);
-  }
-
- private:
-  std::unique_ptr<dw::Localizer> loc_;
-  std::mutex mutex_;
 };
 
-class PyOdometry {
+class PyOdometry : public SharedTracker<dw::SlidingWindowOdometry> {
  public:
   PyOdometry(const IcpArgs& icp, double voxel, double max_range, unsigned max_age, double min_fitness,
              unsigned threads) {
@@ -156,34 +165,8 @@ class PyOdometry {
     if (!(min_fitness >= 0 && min_fitness <= 1)) throw py::value_error("min_fitness must be in [0, 1]");
     if (!(voxel > 0) || std::isinf(voxel)) throw py::value_error("voxel must be positive and finite");
     if (!(max_range > 0)) throw py::value_error("max_range must be positive");
-    odo_ = std::make_unique<dw::SlidingWindowOdometry>(o);
+    tracker_ = std::make_unique<dw::SlidingWindowOdometry>(o);
   }
-
-  dw::FrameResult registerScan(py::handle scan) {
-    Points p = pointsArg(scan, "scan");
-    const dw::PointView view = pointView(p);
-    py::gil_scoped_release release;
-    std::lock_guard<std::mutex> lock(mutex_);
-    return odo_->registerScan(view);
-  }
-
-  void setPose(py::handle pose) {
-    const Eigen::Matrix4d m = poseArg(pose, "pose");
-    py::gil_scoped_release release;
-    std::lock_guard<std::mutex> lock(mutex_);
-    odo_->setPose(m);
-  }
-
-  template <typename F>
-  auto locked(F&& f) {
-    py::gil_scoped_release release;
-    std::lock_guard<std::mutex> lock(mutex_);
-    return f(*odo_);
-  }
-
- private:
-  std::unique_ptr<dw::SlidingWindowOdometry> odo_;
-  std::mutex mutex_;
 };
 
 void bindFrameResult(py::module_& m) {
@@ -308,10 +291,13 @@ voxel: scan downsampling leaf and map voxel (> 0); max_range: map points farther
 removed; max_age: frames a map point lives (0: no limit); max_distance, max_iterations,
 transformation_epsilon, fitness_epsilon, kernel, kernel_scale: the ICP loop's (as Localizer);
 min_fitness: LostTrack below it; threads: correspondence search threads (0: all cores).)doc");
-  c.def("register_scan", &PyOdometry::registerScan, py::arg("scan"), R"doc(
+  const auto registerWithoutInit = [](PyOdometry& s, py::handle scan) {
+    return s.registerScan(scan, py::none());
+  };
+  c.def("register_scan", registerWithoutInit, py::arg("scan"), R"doc(
 Register one scan ((n, 3), sensor coordinates) onto the local map, update the map, and return the
 FrameResult. The first scan makes the map. A frame that is not ok leaves the map alone.)doc");
-  c.def("add_scan", &PyOdometry::registerScan, py::arg("scan"), "The same as register_scan.");
+  c.def("add_scan", registerWithoutInit, py::arg("scan"), "The same as register_scan.");
   c.def("set_pose", &PyOdometry::setPose, py::arg("pose"),
         "Set the pose (4x4, sensor -> map) and forget the motion.");
   c.def_property_readonly(
