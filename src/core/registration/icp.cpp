@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
+#include <optional>
 #include <string>
 
 #include "core/registration/rigid_estimation.h"
@@ -201,6 +203,13 @@ IcpResult alignIcp(const CorrespondenceSearch& map, const float* map_normals, co
                    std::size_t n, const Eigen::Matrix4d& guess, const IcpOptions& options, IcpWorkspace& ws) {
   checkOptions(options, map_normals);
   const unsigned threads = resolveThreads(options.num_threads);
+  if (threads > 1 && (!ws.team || ws.team_threads != threads)) {
+    ws.team.reset();
+    ws.team = std::make_unique<ThreadTeam>(threads);
+    ws.team_threads = threads;
+  }
+  std::optional<ThreadTeam::Scope> on_team;
+  if (threads > 1) on_team.emplace(*ws.team);
   IcpResult result;
   result.transform = guess;
   // Non-finite points are dropped once, so that the workspace holds only what the search reads.

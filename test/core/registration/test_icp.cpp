@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <memory>
 #include <random>
+#include <thread>
 
 #include "pcl_delaunay_walk/core/graph/graph_builder.h"
 #include "pcl_delaunay_walk/core/registration/icp.h"
@@ -169,6 +170,35 @@ TEST(IcpLoop, SameBitsOnEveryThreadCount) {
     else
       EXPECT_EQ(r.transform, first) << threads << " threads";
   }
+}
+
+TEST(IcpLoop, AWorkspaceKeepsItsThreadsAcrossCalls) {
+  // The passes run on the workspace's team, so the workers' search scratch outlives a call; one
+  // workspace reused with another thread count, or from another thread, gives the same poses.
+  const std::vector<float> scene = dw_test::dragonScene();
+  const auto search = walkSearch(scene);
+  const std::vector<float> scan = movedBy(scene, motion(0.02, 0.01, {0.1, 0.1, 0.1}), 2);
+  dw::IcpOptions o;
+  o.max_correspondence_distance = 1.0;
+  auto align = [&](dw::IcpWorkspace& ws, unsigned threads) {
+    o.num_threads = threads;
+    return dw::alignIcp(*search, nullptr, scan.data(), scan.size() / 3, Eigen::Matrix4d::Identity(), o, ws)
+        .transform;
+  };
+  dw::IcpWorkspace one;
+  const Eigen::Matrix4d reference = align(one, 1);
+  EXPECT_FALSE(one.team) << "one thread needs no team";
+  dw::IcpWorkspace ws;
+  EXPECT_EQ(align(ws, 3), reference);
+  ASSERT_TRUE(ws.team);
+  const dw::ThreadTeam* const team = ws.team.get();
+  EXPECT_EQ(align(ws, 3), reference);
+  EXPECT_EQ(ws.team.get(), team) << "the same thread count keeps the team";
+  EXPECT_EQ(align(ws, 2), reference);
+  EXPECT_EQ(ws.team_threads, 2u);
+  Eigen::Matrix4d from_other;
+  std::thread([&]() { from_other = align(ws, 2); }).join();
+  EXPECT_EQ(from_other, reference);
 }
 
 TEST(IcpLoop, ConvergenceStatesFollowPcl) {

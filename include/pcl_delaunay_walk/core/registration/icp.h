@@ -16,9 +16,11 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "pcl_delaunay_walk/core/graph/types.h"
+#include "pcl_delaunay_walk/core/util/parallel_for.h"
 
 namespace dw {
 
@@ -91,6 +93,12 @@ struct IcpWorkspace {
   std::vector<float> moved;  ///< the scan at the current estimate, 3 floats per point
   std::vector<std::int32_t> match;
   std::vector<float> dist2;
+  /// The worker threads of every pass, kept from call to call: each thread's search scratch (visit
+  /// stamps, one per map vertex: 40 MB on a 10M-point map) is then allocated once, not by fresh
+  /// threads in every pass. Made on first use for num_threads > 1; calls on one workspace must not
+  /// overlap (they may come from different threads one after another).
+  std::unique_ptr<ThreadTeam> team;
+  unsigned team_threads = 0;  ///< the size `team` was asked for
 };
 
 /// Registers `scan` (n points, 3 floats each, non-finite points ignored) onto the map starting from
