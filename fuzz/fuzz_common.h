@@ -20,7 +20,8 @@
 
 namespace dw_fuzz {
 
-constexpr std::size_t kFlagsAt = 20, kGraphHeaderSize = 104, kPayloadChecksumAt = 88, kHeaderChecksumAt = 96;
+constexpr std::size_t kVersionAt = 8, kFlagsAt = 20, kGraphHeaderSize = 104, kPayloadChecksumAt = 88,
+                      kHeaderChecksumAt = 96;
 
 inline void resealGraphFile(std::vector<std::uint8_t>& f) {
   dw::resealGraphFile(f);
