@@ -23,13 +23,13 @@ namespace {
 }  // namespace
 
 namespace {
-/// Runs check(v) for every vertex on up to `threads` threads, in contiguous blocks. The first error of
-/// the lowest failing block is rethrown, which is the error of the lowest failing vertex: the
+/// Runs fn(v) for every vertex v < n on up to `threads` threads, in contiguous blocks. The first error
+/// of the lowest failing block is rethrown, which is the error of the lowest failing vertex: a check's
 /// message is the same as a one-thread pass gives.
-template <typename Check>
-void checkEachVertex(std::size_t n, unsigned threads, Check&& check) {
+template <typename Fn>
+void forEachVertex(std::size_t n, unsigned threads, Fn&& fn) {
   parallelFor(n, workerCount(n, threads, 1u << 15), [&](std::size_t b, std::size_t e, unsigned) {
-    for (std::size_t v = b; v < e; ++v) check(v);
+    for (std::size_t v = b; v < e; ++v) fn(v);
   });
 }
 }  // namespace
@@ -41,14 +41,14 @@ void DelaunayGraph::validate(unsigned num_threads) const {
     if (!std::isfinite(o)) broken("non-finite origin");
   if (offsets.size() != n + 1 || offsets.front() != 0) broken("offsets size");
   if (offsets.back() != edges.size()) broken("offsets do not end at the edge count");
-  checkEachVertex(n, num_threads, [&](std::size_t v) {
+  forEachVertex(n, num_threads, [&](std::size_t v) {
     if (offsets[v] > offsets[v + 1]) broken("offsets not monotonic at vertex " + std::to_string(v));
     if (!std::isfinite(points[v].x) || !std::isfinite(points[v].y) || !std::isfinite(points[v].z))
       broken("non-finite vertex " + std::to_string(v));
   });
   // One pass over the records (a loaded file's largest array), vertex by vertex: the offsets checked
   // above cover [0, edges.size()) exactly, so every record is seen once.
-  checkEachVertex(n, num_threads, [&](std::size_t v) {
+  forEachVertex(n, num_threads, [&](std::size_t v) {
     for (index_t k = offsets[v]; k < offsets[v + 1]; ++k) {
       const EdgeRecord& e = edges[k];
       if (e.j >= n) broken("edge neighbour out of range");
@@ -60,7 +60,7 @@ void DelaunayGraph::validate(unsigned num_threads) const {
   });
   if (!safe_radius2.empty()) {
     if (safe_radius2.size() != n) broken("safe radii size");
-    checkEachVertex(n, num_threads, [&](std::size_t v) {
+    forEachVertex(n, num_threads, [&](std::size_t v) {
       float r = INFINITY;
       for (index_t e = offsets[v]; e < offsets[v + 1]; ++e) r = std::min(r, edges[e].m);
       // A radius larger than half the nearest-neighbour distance would stop walks at the wrong vertex.
@@ -72,7 +72,7 @@ void DelaunayGraph::validate(unsigned num_threads) const {
       originals_offsets.back() != originals.size())
     broken("originals offsets");
   const std::size_t num_input = input_to_vertex.size();
-  checkEachVertex(n, num_threads, [&](std::size_t v) {
+  forEachVertex(n, num_threads, [&](std::size_t v) {
     if (originals_offsets[v] >= originals_offsets[v + 1]) broken("vertex without an input point");
     for (index_t k = originals_offsets[v]; k < originals_offsets[v + 1]; ++k) {
       const index_t i = originals[k];
@@ -334,32 +334,26 @@ void sortNeighbourhoods(DelaunayGraph& g, unsigned num_threads) {
   // would break std::sort's ordering contract) untouched for validate() to report. The offsets are
   // checked whole first, so that the neighbourhoods sorted in parallel cannot overlap.
   const std::size_t nv = g.offsets.size() - (g.offsets.empty() ? 0 : 1);
-  const unsigned workers = workerCount(nv, num_threads, 1u << 15);
   std::atomic<bool> malformed{false};
-  parallelFor(nv, workers, [&](std::size_t b, std::size_t e, unsigned) {
-    for (std::size_t v = b; v < e && !malformed.load(std::memory_order_relaxed); ++v)
-      if (g.offsets[v] > g.offsets[v + 1] || g.offsets[v + 1] > g.edges.size()) malformed = true;
+  forEachVertex(nv, num_threads, [&](std::size_t v) {
+    if (g.offsets[v] > g.offsets[v + 1] || g.offsets[v + 1] > g.edges.size())
+      malformed.store(true, std::memory_order_relaxed);
   });
   if (malformed) return;
-  parallelFor(nv, workers, [&](std::size_t b, std::size_t e, unsigned) {
-    for (std::size_t v = b; v < e; ++v) {
-      const auto first = g.edges.begin() + g.offsets[v], last = g.edges.begin() + g.offsets[v + 1];
-      if (std::is_sorted(first, last, shorterEdge)) continue;
-      if (std::any_of(first, last, [](const EdgeRecord& r) { return !std::isfinite(r.m); })) continue;
-      std::sort(first, last, shorterEdge);
-    }
+  forEachVertex(nv, num_threads, [&](std::size_t v) {
+    const auto first = g.edges.begin() + g.offsets[v], last = g.edges.begin() + g.offsets[v + 1];
+    if (std::is_sorted(first, last, shorterEdge)) return;
+    if (std::any_of(first, last, [](const EdgeRecord& r) { return !std::isfinite(r.m); })) return;
+    std::sort(first, last, shorterEdge);
   });
 }
 
 void computeSafeRadii(DelaunayGraph& g, unsigned num_threads) {
-  const std::size_t n = g.points.size();
-  g.safe_radius2.assign(n, 0.f);
-  parallelFor(n, workerCount(n, num_threads, 1u << 15), [&](std::size_t b, std::size_t e, unsigned) {
-    for (std::size_t v = b; v < e; ++v) {
-      float r = INFINITY;
-      for (index_t k = g.offsets[v]; k < g.offsets[v + 1]; ++k) r = std::min(r, g.edges[k].m);
-      g.safe_radius2[v] = safeRadius2(r);
-    }
+  g.safe_radius2.assign(g.points.size(), 0.f);
+  forEachVertex(g.points.size(), num_threads, [&](std::size_t v) {
+    float r = INFINITY;
+    for (index_t k = g.offsets[v]; k < g.offsets[v + 1]; ++k) r = std::min(r, g.edges[k].m);
+    g.safe_radius2[v] = safeRadius2(r);
   });
 }
 
