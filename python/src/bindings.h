@@ -14,5 +14,7 @@ void bindIcp(pybind11::module_& m);     ///< icp() through the PCL layer (icp_bi
 void bindLocalization(pybind11::module_& m);
 /// raster_from_tin(); write_dem(), las_crs_wkt() with the GDAL adapter (dem_bindings.cpp)
 void bindDem(pybind11::module_& m);
+/// _cpp_nearest_seconds, the C++ side of the overhead benchmark (reference_bindings.cpp)
+void bindReference(pybind11::module_& m);
 
 }  // namespace dw_py

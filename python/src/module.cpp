@@ -30,6 +30,7 @@ PYBIND11_MODULE(_native, m) {
   dw_py::bindTinLas(m);
   dw_py::bindLocalization(m);
   dw_py::bindDem(m);
+  dw_py::bindReference(m);
 #ifdef DW_PY_WITH_PCL
   dw_py::bindIcp(m);
   m.attr("HAVE_ICP") = true;

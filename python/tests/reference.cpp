@@ -28,6 +28,7 @@
 #include "pcl_delaunay_walk/core/registration/sliding_window_odometry.h"
 #include "pcl_delaunay_walk/core/search/neighbour_search.h"
 #include "pcl_delaunay_walk/core/util/parallel_for.h"
+#include "reference_nearest.h"  // python/src
 
 #ifdef DW_PY_WITH_PCL
 #pragma GCC diagnostic ignored "-Warray-bounds"
@@ -54,37 +55,14 @@ std::vector<float> readF32(const std::string& path) {
 int nearestBench(char** argv) {
   const std::vector<float> pts = readF32(argv[0]), qs = readF32(argv[1]);
   const unsigned threads = static_cast<unsigned>(std::atoi(argv[2]));
-  const int repeats = std::atoi(argv[3]);
   dw::BuildOptions options;
   options.num_threads = threads;
   auto graph = std::make_shared<dw::DelaunayGraph>(
       dw::buildDelaunayGraph(dw::PointView::fromFloat(pts.data(), pts.size() / 3), options));
   const dw::NeighbourSearch search(graph);
-  const std::size_t n = qs.size() / 3;
-  std::vector<dw::index_t> out(n);
-  std::vector<float> d2(n);
-  double best = 1e300, best_cpu = 1e300;
-  auto cpu = [] {  // process CPU time: on a shared machine, steadier than wall time
-    timespec ts{};
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-  };
-  for (int r = 0; r < repeats; ++r) {
-    const double c0 = cpu();
-    const auto t0 = std::chrono::steady_clock::now();
-    dw::parallelFor(n, dw::workerCount(n, threads, 1024), [&](std::size_t b, std::size_t e, unsigned) {
-      for (std::size_t i = b; i < e; ++i) {
-        const dw::WalkResult w = search.nearest(graph->toLocal(qs[3 * i], qs[3 * i + 1], qs[3 * i + 2]));
-        out[i] = graph->representative(w.vertex);
-        d2[i] = w.dist2;
-      }
-    });
-    best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    best_cpu = std::min(best_cpu, cpu() - c0);
-  }
-  unsigned long long sum = 0;
-  for (dw::index_t i : out) sum += i;
-  std::printf("seconds %.9g\ncpu_seconds %.9g\nindex_sum %llu\n", best, best_cpu, sum);
+  const dw_py::ReferenceTiming t =
+      dw_py::timeNearestBatch(search, qs.data(), qs.size() / 3, threads, std::atoi(argv[3]));
+  std::printf("seconds %.9g\ncpu_seconds %.9g\nindex_sum %llu\n", t.seconds, t.cpu_seconds, t.index_sum);
   return 0;
 }
 
@@ -124,7 +102,7 @@ int odometryRun(int argc, char** argv) {
     const std::vector<float> scan = readF32(argv[i]);
     printFrame(odo.registerScan(dw::PointView::fromFloat(scan.data(), scan.size() / 3)));
   }
-  std::printf("map %zu\n", odo.map().size());
+  std::printf("map %zu\n", odo.mapSize());
   return 0;
 }
 

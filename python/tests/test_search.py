@@ -291,3 +291,18 @@ def test_thread_count_does_not_change_answers(rng):
     o4 = s.radius(q[:2000], 0.03, threads=4)
     for a, b in zip(o1, o4):
         np.testing.assert_array_equal(a, b)
+
+
+def test_cpp_reference_batch_gives_the_bindings_answers(rng):
+    """The overhead benchmark's C++ batch (_cpp_nearest_seconds) answers what nearest() answers, so
+    that timing one against the other compares the same work."""
+    from pcl_delaunay_walk import _native
+
+    p = rng.random((5000, 3)).astype(np.float32)
+    q = (p[rng.choice(5000, 3000)] + rng.normal(0, 0.002, (3000, 3))).astype(np.float32)
+    s = dw.NeighbourSearch(dw.DelaunayGraph(p))
+    wall, cpu, index_sum = _native._cpp_nearest_seconds(s, q, 2, 2)
+    assert wall > 0 and cpu > 0
+    assert index_sum == int(s.nearest(q, strategy="kd-ann")[0].sum())
+    with pytest.raises(ValueError):
+        _native._cpp_nearest_seconds(s, q[:, :2], 1, 1)
