@@ -1,6 +1,8 @@
 // Google Benchmark: what the PCL adapter costs over the core, for the same queries on the same graph.
 //
 //   <query>/core      dw::NeighbourSearch in the graph's local frame (start by KD-ANN, walk, expand)
+//   NN/core_index     NN/core with the answer vertex mapped to the input index a caller refers to
+//                     (DelaunayGraph::representative), as the core's knn() and radius() answer
 //   <query>/caller    dw::CallerMetricSearch: the same, certified in the caller's float metric
 //   <query>/adapter   pcl::search::DelaunayWalk<PointXYZ> (Indices / vector<float> out, PCL's API)
 //   <query>/kdtree    pcl::search::KdTree<PointXYZ>, the class the adapter replaces (reference)
@@ -8,11 +10,13 @@
 // <query>: NN (k = 1), kNN8, kNN16, radius (a radius holding ~16 points on average). The cloud is
 // data/bun000.ply (40,256 points, bundled); the queries are 20,000 of its points moved by ~0.2 of
 // the point spacing, as NormalEstimation or ICP near convergence would ask. Compare items_per_second:
-// adapter / core is the adapter's overhead, caller / core the part that certification takes.
+// adapter / core is the adapter's overhead (for NN, adapter / core_index over the same answer: input
+// indices), caller / core the part that certification takes.
 #include <benchmark/benchmark.h>
 #include <pcl/point_types.h>
 #include <pcl/search/kdtree.h>
 
+#include <cstdlib>
 #include <random>
 #include <string>
 #include <vector>
@@ -33,7 +37,10 @@ struct Setup {
   double radius = 0.0;
 
   Setup() {
-    const std::vector<double> xyz = dw::readPointsXyz(std::string(DW_TEST_DATA_DIR) + "/bun000.ply");
+    // DW_DATA_DIR: where the bundled data lies on a machine the binary was carried to.
+    const char* dir = std::getenv("DW_DATA_DIR");
+    const std::vector<double> xyz =
+        dw::readPointsXyz(std::string(dir ? dir : DW_TEST_DATA_DIR) + "/bun000.ply");
     for (std::size_t i = 0; i < xyz.size() / 3; ++i)
       cloud->push_back(P(float(xyz[3 * i]), float(xyz[3 * i + 1]), float(xyz[3 * i + 2])));
     walk.setInputCloud(cloud);
@@ -68,6 +75,9 @@ int kOf(Query q) {
   return q == Query::NN ? 1 : q == Query::kNN8 ? 8 : 16;
 }
 
+/// The core's answers; kIndices maps the NN answer vertex to its input index (knn() and radius()
+/// answer input indices already).
+template <bool kIndices>
 void core(benchmark::State& state, Query kind) {
   Setup& s = setup();
   const dw::NeighbourSearch& ns = s.walk.getCallerMetricSearch()->neighbourSearch();
@@ -80,12 +90,12 @@ void core(benchmark::State& state, Query kind) {
     for (const P& q : s.queries) {
       const dw::Vec3f ql = g.toLocal(q.x, q.y, q.z);
       const dw::WalkResult nn = ns.nearest(ql, dw::StartStrategy::KdAnn);
-      if (kind == Query::NN)
-        found += nn.vertex;
-      else if (kind == Query::Radius)
-        found += ns.radius(ql, r2, nn, idx, d2, 0);
-      else
-        found += ns.knn(ql, static_cast<std::size_t>(kOf(kind)), nn, idx, d2);
+      if (kind == Query::NN) {
+        found += kIndices ? g.representative(nn.vertex) : nn.vertex;
+        continue;
+      }
+      found += kind == Query::Radius ? ns.radius(ql, r2, nn, idx, d2, 0)
+                                     : ns.knn(ql, static_cast<std::size_t>(kOf(kind)), nn, idx, d2);
     }
   }
   benchmark::DoNotOptimize(found);
@@ -137,7 +147,10 @@ void registerAll() {
   for (const auto& [name, kind] : kinds) {
     const Query k = kind;
     const std::string n = name;
-    benchmark::RegisterBenchmark((n + "/core").c_str(), [k](benchmark::State& st) { core(st, k); });
+    benchmark::RegisterBenchmark((n + "/core").c_str(), [k](benchmark::State& st) { core<false>(st, k); });
+    if (k == Query::NN)
+      benchmark::RegisterBenchmark((n + "/core_index").c_str(),
+                                   [k](benchmark::State& st) { core<true>(st, k); });
     benchmark::RegisterBenchmark((n + "/caller").c_str(), [k](benchmark::State& st) { caller(st, k); });
     benchmark::RegisterBenchmark((n + "/adapter").c_str(),
                                  [k](benchmark::State& st) { pclSearch(st, k, setup().walk); });
