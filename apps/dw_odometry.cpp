@@ -86,7 +86,7 @@ int run(const Options& o) {
   std::printf(
       "local map: %zu points; inserted %llu (%.3g points/s), removed %llu (%.3g points/s), "
       "graph extraction %.3f s in all\n",
-      odo.map().size(), static_cast<unsigned long long>(s.inserted),
+      odo.mapSize(), static_cast<unsigned long long>(s.inserted),
       s.insert_seconds > 0 ? double(s.inserted) / s.insert_seconds : 0.0,
       static_cast<unsigned long long>(s.removed),
       s.remove_seconds > 0 ? double(s.removed) / s.remove_seconds : 0.0, s.graph_seconds);

@@ -8,13 +8,15 @@
 // iterations and epsilons; ratios are the peer's time over the walk's. The exact peers' poses must
 // equal the walk's within 1e-6 relative (printed). With --odometry it also measures the sliding-window
 // map's insert and remove rates (dw::DynamicDelaunayGraph) beside nanoflann 1.12.1's
-// KDTreeSingleIndexIncrementalAdaptor on the same stream.
+// KDTreeSingleIndexIncrementalAdaptor on the same stream, then the odometry twice: deleting retired
+// points from the triangulation every frame, and retiring them until a compaction (the default).
 //
 //   dw_localize_bench [--map-points 2M] [--scan-points 120k] [--frames 10] [--threads 0] [--kitti DIR]
 //                     [--max-distance 1] [--odometry] [--no-pcl] [--seed 1] [--graph-file TMP.graph]
-//                     [--scan-order sensor|random]
+//                     [--scan-order sensor|random] [--no-maintenance]
 // The street's scans come in sensor order (azimuth columns, as a spinning LiDAR delivers them) unless
-// --scan-order random shuffles them, the warm starts' worst case.
+// --scan-order random shuffles them, the warm starts' worst case. --no-maintenance leaves out the
+// insert/remove rate tables (the odometry rows only).
 // --graph-file also times saving the walk's map graph there and loading it back, by mmap (as
 // dw::Localizer::load does) and by copy (the file is removed).
 #include <Eigen/Geometry>
@@ -74,7 +76,7 @@ struct Options {
   unsigned threads = 0;
   std::string kitti, graph_file;
   double max_distance = 1.0;
-  bool odometry = false, pcl = true;
+  bool odometry = false, maintenance = true, pcl = true;
   dw_bench::ScanOrder scan_order = dw_bench::ScanOrder::kSensor;
   unsigned seed = 1;
 };
@@ -475,11 +477,14 @@ void benchMapMaintenance(const Scene& s, double voxel, double range) {
 
 /// dw::SlidingWindowOdometry over the scene's scans (0.5 m voxels, range 60 m, one thread): per-frame
 /// latency and the drift against the true poses made relative to the first.
-void benchOdometry(const Scene& s) {
+/// compact_ratio 0: retired points leave the triangulation each frame; else they stay until they
+/// outnumber that share of the live ones (dw::OdometryOptions::compact_ratio).
+void benchOdometry(const Scene& s, double compact_ratio) {
   dw::OdometryOptions o;
   o.voxel = 0.5;
   o.max_range = 60.0;
   o.num_threads = 1;
+  o.compact_ratio = compact_ratio;
   dw::SlidingWindowOdometry odo(o);
   std::vector<double> ms;
   double worst = 0;
@@ -496,13 +501,15 @@ void benchOdometry(const Scene& s) {
     worst = std::max(worst, (r.pose.topRightCorner<3, 1>() - rel.topRightCorner<3, 1>()).norm());
   }
   const dw::OdometryMapStats& st = odo.mapStats();
-  std::printf("\nsliding-window odometry, 0.5 m voxels, range 60 m, one thread, %zu frames (%zu ok)\n",
-              s.scans.size(), ok);
+  std::printf(
+      "\nsliding-window odometry, 0.5 m voxels, range 60 m, one thread, %zu frames (%zu ok), compact ratio %g"
+      " (%llu compactions)\n",
+      s.scans.size(), ok, compact_ratio, static_cast<unsigned long long>(st.compactions));
   std::printf(
       "per-frame ms p50 %.2f p95 %.2f max %.2f (thread cpu p50 %.2f); largest translation drift %.3f m;"
       " map %zu points; walk graph %.1f ms/frame, insert %.3g points/s, remove %.3g points/s\n",
       percentile(ms, 0.5), percentile(ms, 0.95), *std::max_element(ms.begin(), ms.end()),
-      percentile(cpu_ms, 0.5), worst, odo.map().size(), 1e3 * st.graph_seconds / double(s.scans.size()),
+      percentile(cpu_ms, 0.5), worst, odo.mapSize(), 1e3 * st.graph_seconds / double(s.scans.size()),
       st.insert_seconds > 0 ? double(st.inserted) / st.insert_seconds : 0.0,
       st.remove_seconds > 0 ? double(st.removed) / st.remove_seconds : 0.0);
 }
@@ -636,7 +643,9 @@ Options parse(int argc, char** argv) {
       if (v != "sensor" && v != "random")
         throw dw::Error("--scan-order takes sensor or random, not '" + v + "'");
       o.scan_order = v == "sensor" ? dw_bench::ScanOrder::kSensor : dw_bench::ScanOrder::kRandom;
-    } else if (a == "--no-pcl")
+    } else if (a == "--no-maintenance")
+      o.maintenance = false;
+    else if (a == "--no-pcl")
       o.pcl = false;
     else
       throw dw::Error("unknown option '" + a + "'");
@@ -659,9 +668,12 @@ int main(int argc, char** argv) {
     const Scene s = makeSynthetic(o);
     benchScene(s, o);
     if (o.odometry) {
-      benchMapMaintenance(s, 0.5, 60.0);
-      benchMapMaintenance(s, 0.0, 60.0);
-      benchOdometry(s);
+      if (o.maintenance) {
+        benchMapMaintenance(s, 0.5, 60.0);
+        benchMapMaintenance(s, 0.0, 60.0);
+      }
+      benchOdometry(s, 0.0);
+      benchOdometry(s, 1.0);
 #ifdef DW_HAVE_NANOFLANN_PEER
       benchNanoflannOdometry(s);
 #endif

@@ -305,7 +305,7 @@ FrameResult. The first scan makes the map. A frame that is not ok leaves the map
       "The current pose (4x4 float64, sensor -> map frame).");
   c.def_property_readonly(
       "map_size",
-      [](PyOdometry& s) { return s.locked([](dw::SlidingWindowOdometry& o) { return o.map().size(); }); },
+      [](PyOdometry& s) { return s.locked([](dw::SlidingWindowOdometry& o) { return o.mapSize(); }); },
       "Points in the local map.");
   c.def_property_readonly(
       "frames",

@@ -84,6 +84,11 @@ index_t DynamicDelaunayGraph::slotOf(PointId id) const {
   return it->second;
 }
 
+DynamicDelaunayGraph::PointId DynamicDelaunayGraph::idAt(const Vec3f& local) const {
+  const auto it = slot_at_.find(keyOf(local));
+  return it == slot_at_.end() ? kNoId : slot_id_[it->second];
+}
+
 std::array<double, 3> DynamicDelaunayGraph::position(PointId id) const {
   const Vec3f& p = points_[slotOf(id)];
   return {origin_[0] + p.x, origin_[1] + p.y, origin_[2] + p.z};

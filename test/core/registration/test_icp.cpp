@@ -250,4 +250,40 @@ TEST(IcpLoop, BadInputGivesStatusesOrErrors) {
   EXPECT_THROW(dw::alignIcp(*search, nullptr, bad.data(), 3, Eigen::Matrix4d::Identity(), o, ws), dw::Error);
 }
 
+TEST(WalkCorrespondenceSearch, RetiredPointsAreNeverAnswered) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  std::vector<float> xyz;
+  for (int i = 0; i < 3000; ++i) xyz.insert(xyz.end(), {u(rng), u(rng), 0.2f * u(rng)});
+  auto search = walkSearch(xyz);
+  // Retire a block (the whole neighbourhood of the queries in it) and a scattering elsewhere.
+  std::vector<std::uint8_t> retired(3000);
+  std::vector<float> live;
+  for (std::size_t i = 0; i < 3000; ++i) {
+    retired[i] = (xyz[3 * i] < 0.3f && xyz[3 * i + 1] < 0.3f) || i % 7 == 0;
+    if (!retired[i]) live.insert(live.end(), &xyz[3 * i], &xyz[3 * i] + 3);
+  }
+  search->setRetired(retired, std::numeric_limits<double>::infinity());
+  const BruteForceSearch brute(live);
+  for (int k = 0; k < 500; ++k) {
+    const float q[3] = {u(rng), u(rng), 0.2f * u(rng)};
+    dw::index_t hint = dw::kInvalidIndex, none = dw::kInvalidIndex;
+    std::int32_t got = -1, want = -1;
+    float d2 = 0, want_d2 = 0;
+    ASSERT_TRUE(search->nearest(q, hint, got, d2));
+    ASSERT_TRUE(brute.nearest(q, none, want, want_d2));
+    EXPECT_FALSE(retired[std::size_t(got)]);
+    EXPECT_EQ(d2, want_d2) << "query " << k;
+  }
+  // With a bound: a query in the retired block, whose nearest live point lies beyond the bound, has
+  // no answer (the ICP loop drops a match beyond its maximum distance anyway).
+  search->setRetired(retired, 0.01);
+  const float q[3] = {0.1f, 0.1f, 0.1f};
+  dw::index_t hint = dw::kInvalidIndex;
+  std::int32_t got = -1;
+  float d2 = 0;
+  EXPECT_FALSE(search->nearest(q, hint, got, d2));
+  EXPECT_THROW(search->setRetired(std::vector<std::uint8_t>(10), 1.0), dw::Error);
+}
+
 }  // namespace

@@ -153,6 +153,51 @@ TEST(SlidingWindowOdometry, BadFramesLeaveTheMapAlone) {
         dw::SlidingWindowOdometry x(bad);
       }(),
       dw::Error);
+  EXPECT_THROW(
+      [] {
+        dw::OdometryOptions bad;
+        bad.compact_ratio = -1;
+        dw::SlidingWindowOdometry x(bad);
+      }(),
+      dw::Error);
+}
+
+TEST(SlidingWindowOdometry, RetiringGivesTheTrajectoryOfDeletingEveryFrame) {
+  // Retired points stay in the triangulation until a compaction but are never a correspondence, so
+  // every policy finds the same exact neighbours and so the same poses.
+  const std::vector<float> scene = dw_test::dragonScene();
+  const auto truth = dw_test::arcTrajectory(7, 0.25, 0.015);
+  std::vector<std::vector<Eigen::Matrix4d>> poses;
+  std::vector<std::size_t> sizes;
+  for (double ratio : {0.0, 1.0, 0.02}) {
+    dw::OdometryOptions o = sceneOptions();
+    o.max_range = 6.0;
+    o.max_age = 4;
+    o.compact_ratio = ratio;
+    dw::SlidingWindowOdometry odo(o);
+    poses.emplace_back();
+    for (std::size_t k = 0; k < truth.size(); ++k) {
+      const std::vector<float> scan = dw_test::cutScan(scene, truth[k], 8.0, unsigned(k + 31));
+      const dw::FrameResult r = odo.registerScan(dw::PointView::fromFloat(scan.data(), scan.size() / 3));
+      ASSERT_EQ(r.status, dw::FrameStatus::Ok) << "ratio " << ratio << " frame " << k;
+      poses.back().push_back(r.pose);
+    }
+    if (ratio == 0.0) {
+      EXPECT_EQ(odo.retiredSize(), 0u);
+    } else if (ratio == 0.02) {
+      EXPECT_GT(odo.mapStats().compactions, 1u);
+    }
+    EXPECT_GT(odo.mapStats().removed, 0u);
+    sizes.push_back(odo.mapSize());
+    EXPECT_EQ(odo.map().size(), odo.mapSize());  // map() compacts: the live points only
+    EXPECT_EQ(odo.retiredSize(), 0u);
+    odo.map().validate();
+  }
+  for (std::size_t p = 1; p < poses.size(); ++p) {
+    EXPECT_EQ(sizes[p], sizes[0]);
+    for (std::size_t k = 0; k < truth.size(); ++k)
+      EXPECT_LT((poses[p][k] - poses[0][k]).cwiseAbs().maxCoeff(), 1e-9) << "policy " << p << " frame " << k;
+  }
 }
 
 }  // namespace

@@ -66,6 +66,8 @@ class DynamicDelaunayGraph {
   bool contains(PointId id) const { return slot_of_.count(id) != 0; }
   /// Live ids, ascending (the input order of graph()).
   std::vector<PointId> liveIds() const;
+  /// The live point whose float position in the local frame is exactly `local`, or kNoId.
+  PointId idAt(const Vec3f& local) const;
   /// Caller coordinates of a live point (its float position plus the origin). Throws for unknown ids.
   std::array<double, 3> position(PointId id) const;
 
@@ -137,13 +139,13 @@ class DynamicDelaunayGraph {
   // slot, in (m, slot) order; renumbering the live slots in ascending order keeps that order, so the
   // laid-out graph has the documented (m, j) order without sorting.
   std::vector<std::vector<EdgeRecord>> neighbourhood_;
-  std::vector<std::uint8_t> dirty_;   // per slot
-  std::vector<index_t> dirty_list_;   // the slots with dirty_ set (some may have died since)
-  bool all_dirty_ = true;             // the triangulation was (re)built: re-read every point
+  std::vector<std::uint8_t> dirty_;  // per slot
+  std::vector<index_t> dirty_list_;  // the slots with dirty_ set (some may have died since)
+  bool all_dirty_ = true;            // the triangulation was (re)built: re-read every point
   std::size_t last_refreshed_ = 0;
   std::vector<std::uint32_t> tet_seen_, slot_seen_;  // per tetrahedron / slot: stamp of the last visit
   std::uint32_t stamp_ = 0;
-  std::vector<index_t> star_, link_;  // collectLink's scratch and result
+  std::vector<index_t> star_, link_;                 // collectLink's scratch and result
   std::vector<std::size_t> scan_start_, scan_fill_;  // refreshByScan's buckets, per slot
   std::vector<index_t> scan_bucket_;
   std::vector<std::uint64_t> record_keys_;  // recordNeighbourhood's sort keys

@@ -7,8 +7,10 @@
 /// the distance it covers, while KD-ANN costs one descent.
 #pragma once
 
+#include <cstdint>
 #include <limits>
 #include <memory>
+#include <vector>
 
 #include "pcl_delaunay_walk/core/registration/icp.h"
 #include "pcl_delaunay_walk/core/search/caller_metric_search.h"
@@ -42,6 +44,8 @@ class WalkCorrespondenceSearch final : public CorrespondenceSearch {
     CallerMetricSearchStats stats;
     if (!search_->nearest(q, strategy_, hint, nb, &stats)) return false;
     hint = stats.nn_vertex;
+    if (!retired_.empty() && retired_[static_cast<std::size_t>(nb.index)] && !nearestLive(q, hint, nb))
+      return false;
     index = nb.index;
     dist2 = nb.sqr_distance;
     return true;
@@ -52,13 +56,44 @@ class WalkCorrespondenceSearch final : public CorrespondenceSearch {
     max_hint2_ = d < 1e18 ? static_cast<float>(d * d) : std::numeric_limits<float>::infinity();
   }
 
+  /// Map points that are in the graph but no longer in the map (a sliding window's retired points):
+  /// never answered. retired[i] != 0 for map point i (empty: none). A query whose nearest point is
+  /// retired is answered by the nearest live one, found by expanding its exact k nearest; when every
+  /// point within `max_distance` is retired it has no answer (nearest() returns false), as the ICP
+  /// loop drops a match beyond its maximum correspondence distance anyway.
+  void setRetired(std::vector<std::uint8_t> retired, double max_distance) {
+    if (!retired.empty() && retired.size() != size())
+      throw Error("dw::WalkCorrespondenceSearch: one retired flag per map point");
+    retired_ = std::move(retired);
+    retired_max2_ = max_distance < 1e18 ? static_cast<float>(max_distance * max_distance)
+                                        : std::numeric_limits<float>::infinity();
+  }
+
   const CallerMetricSearch& callerSearch() const { return *search_; }
   const std::shared_ptr<const CallerMetricSearch>& callerSearchPtr() const { return search_; }
 
  private:
+  /// The nearest live point of q, where its nearest point is retired: the first live one among its k
+  /// nearest (ascending, so exact), k growing until one is found, all points are in, or the k-th lies
+  /// beyond retired_max2_ (then false).
+  bool nearestLive(const float q[3], index_t hint, WalkNeighbour& nb) const {
+    thread_local std::vector<WalkNeighbour> found;
+    for (std::size_t k = 8;; k *= 4) {
+      const std::size_t m = search_->knn(q, k, strategy_, hint, found);
+      for (std::size_t j = 0; j < m; ++j)
+        if (!retired_[static_cast<std::size_t>(found[j].index)]) {
+          nb = found[j];
+          return true;
+        }
+      if (m < k || m == 0 || found[m - 1].sqr_distance > retired_max2_) return false;
+    }
+  }
+
   std::shared_ptr<const CallerMetricSearch> search_;
   StartStrategy strategy_;
   float max_hint2_ = std::numeric_limits<float>::infinity();
+  std::vector<std::uint8_t> retired_;
+  float retired_max2_ = std::numeric_limits<float>::infinity();
 };
 
 }  // namespace dw
