@@ -351,7 +351,8 @@ RunResult runSmallGicpIcp(const Scene& s, const Options& o) {
 #endif
 
 /// The peers in our loop, each present or skipped with a line, then small_gicp's own ICP.
-void runPeers(const Scene& s, const Options& o, std::vector<RunResult>& runs) {
+void runPeers([[maybe_unused]] const Scene& s, [[maybe_unused]] const Options& o,
+              [[maybe_unused]] std::vector<RunResult>& runs) {
 #ifdef DW_HAVE_NANOFLANN_PEER
   runs.push_back(
       runExactPeer<dw_bench::NanoflannSearch>("nanoflann " NANOFLANN_VERSION_STRING, s, o, s.map, o.threads));
@@ -592,6 +593,7 @@ void printOdometryTable(const Scene& s, const std::vector<OdometryRun>& runs) {
 /// is its own latency_seconds (downsampling included, as in the peers' rows).
 OdometryRun runOdometry(const Scene& s) {
   dw::OdometryOptions o;
+  o.icp = odometryIcp();
   o.voxel = 0.5;
   o.max_range = 60.0;
   o.num_threads = 1;
