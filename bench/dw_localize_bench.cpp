@@ -1,19 +1,29 @@
 // dw_localize_bench: per-frame time of localization against a prior map, one process, side by side:
-//   - walk:      the localizer's ICP loop (core/registration/icp.h) over the Delaunay walk, warm starts
-//                within and across frames;
-//   - nanoflann: the same loop over nanoflann 1.12.1's static KDTreeSingleIndexAdaptor (leaf 10);
-//   - pcl:       stock pcl::IterativeClosestPoint<PointXYZ, PointXYZ, double> with a prebuilt
-//                pcl::search::KdTree (only in a build with PCL).
+//   - walk:       the localizer's ICP loop (core/registration/icp.h) over the Delaunay walk, warm starts
+//                 within and across frames;
+//   - exact peers in the same loop, each a dw::CorrespondenceSearch: nanoflann 1.12.1's static
+//                 KDTreeSingleIndexAdaptor (leaf 10), pico_tree's kd_tree (leaf 10) and small_gicp's
+//                 KdTree (its defaults); their poses must equal the walk's within 1e-6 relative;
+//   - small_gicp's own ICP (point-to-point factor, its Levenberg-Marquardt loop) on the same map from
+//                 the same kind of guess, with our distance, iterations and epsilon translated: a
+//                 different loop, so compared by time and by error against the true poses;
+//   - pcl:        stock pcl::IterativeClosestPoint<PointXYZ, PointXYZ, double> with a prebuilt
+//                 pcl::search::KdTree (only in a build with PCL).
 // Same scans, same guesses (each method's own constant-velocity prediction), same distance,
-// iterations and epsilons; ratios are the peer's time over the walk's. The exact peers' poses must
-// equal the walk's within 1e-6 relative (printed). With --odometry it also measures the sliding-window
-// map's insert and remove rates (dw::DynamicDelaunayGraph) beside nanoflann 1.12.1's
-// KDTreeSingleIndexIncrementalAdaptor on the same stream, then the odometry twice: deleting retired
-// points from the triangulation every frame, and retiring them until a compaction (the default).
+// iterations and epsilons; ratios are the peer's time over the walk's. With --odometry it also
+// measures the sliding-window map's insert and remove rates (dw::DynamicDelaunayGraph) beside
+// nanoflann 1.12.1's KDTreeSingleIndexIncrementalAdaptor on the same stream, and our odometry beside
+// the same odometry over nanoflann's incremental tree and small_gicp's over its incremental voxel map;
+// ours twice: deleting the points that leave the window every frame (compact ratio 0), and retiring
+// them until a compaction (the default).
+// A peer whose folder was absent at build time (bench/CMakeLists.txt, DW_PEERS_DIR) prints a line
+// saying so instead of its row; the adaptors live in bench/localize_peers/.
 //
 //   dw_localize_bench [--map-points 2M] [--scan-points 120k] [--frames 10] [--threads 0] [--kitti DIR]
 //                     [--max-distance 1] [--odometry] [--no-pcl] [--seed 1] [--graph-file TMP.graph]
 //                     [--scan-order sensor|random] [--no-maintenance]
+// --threads is the walk's, the exact peers' ICP loop's and small_gicp's (its tree build and its
+// reduction, with OpenMP; one thread without). The odometry rows are one thread each.
 // The street's scans come in sensor order (azimuth columns, as a spinning LiDAR delivers them) unless
 // --scan-order random shuffles them, the warm starts' worst case. --no-maintenance leaves out the
 // insert/remove rate tables (the odometry rows only).
@@ -47,7 +57,13 @@
 #include "synthetic_street.h"
 
 #ifdef DW_HAVE_NANOFLANN_PEER
-#include <nanoflann.hpp>
+#include "localize_peers/nanoflann_peers.h"
+#endif
+#ifdef DW_HAVE_PICO_TREE_PEER
+#include "localize_peers/pico_tree_search.h"
+#endif
+#ifdef DW_HAVE_SMALL_GICP_PEER
+#include "localize_peers/small_gicp_peers.h"
 #endif
 #ifdef DW_BENCH_PCL
 #pragma GCC diagnostic ignored "-Warray-bounds"
@@ -138,70 +154,66 @@ dw::IcpOptions icpOptions(const Options& o) {
 
 struct RunResult {
   std::string method;
+  bool exact = true;  ///< our loop over an exact search: poses must equal the walk's within 1e-6
+  std::string note;   ///< why its poses may still differ, printed when they do
   double build_s = 0;
   std::vector<double> frame_ms;
   std::vector<Eigen::Matrix4d> poses;
   double iterations = 0;
 };
 
-/// The sequence through alignIcp: the first guess is the true pose (a KITTI pair: identity), then a
-/// constant-velocity prediction from the method's own poses.
-void runLoop(const dw::CorrespondenceSearch& search, const Scene& s, const Options& o, RunResult& r) {
-  dw::IcpWorkspace ws;
+/// A street sequence has true poses; the KITTI pair registers one scan again and again, truth unknown.
+bool isSequence(const Scene& s) {
+  return s.truth.size() > 1 && s.truth[1] != s.truth[0];
+}
+
+struct FrameFit {
+  Eigen::Matrix4d pose;
+  int iterations = 0;
+};
+
+/// The sequence through `align(k, guess)`: the first guess is the true pose (a KITTI pair: identity),
+/// then a constant-velocity prediction from the method's own poses. Times each call.
+template <typename Align>
+void runSequence(const Scene& s, RunResult& r, Align&& align) {
   Eigen::Matrix4d prev = s.truth[0], vel = Eigen::Matrix4d::Identity();
-  const bool sequence = s.truth.size() > 1 && s.truth[1] != s.truth[0];
+  const bool sequence = isSequence(s);
   for (std::size_t k = 0; k < s.scans.size(); ++k) {
     const Eigen::Matrix4d guess = sequence ? Eigen::Matrix4d(k == 0 ? s.truth[0] : prev * vel) : s.truth[k];
-    if (!sequence) ws.hints.clear();  // the same scan again: no warm start from the previous answer
     const auto t0 = Clock::now();
-    const dw::IcpResult res =
-        dw::alignIcp(search, nullptr, s.scans[k].data(), s.scans[k].size() / 3, guess, icpOptions(o), ws);
+    const FrameFit fit = align(k, guess);
     r.frame_ms.push_back(1e3 * since(t0));
-    r.iterations += res.iterations;
-    r.poses.push_back(res.transform);
-    if (k > 0) vel = prev.inverse() * res.transform;
-    prev = res.transform;
+    r.iterations += fit.iterations;
+    r.poses.push_back(fit.pose);
+    if (k > 0) vel = prev.inverse() * fit.pose;
+    prev = fit.pose;
   }
   r.iterations /= double(s.scans.size());
 }
 
-#ifdef DW_HAVE_NANOFLANN_PEER
-struct FloatCloud {
-  const std::vector<float>* xyz;
-  std::size_t kdtree_get_point_count() const { return xyz->size() / 3; }
-  float kdtree_get_pt(std::size_t i, std::size_t d) const { return (*xyz)[3 * i + d]; }
-  template <class B>
-  bool kdtree_get_bbox(B&) const {
-    return false;
-  }
-};
-using NanoTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, FloatCloud>,
-                                                     FloatCloud, 3, std::uint32_t>;
+/// Our ICP loop (alignIcp) over `search`.
+void runLoop(const dw::CorrespondenceSearch& search, const Scene& s, const Options& o, RunResult& r) {
+  dw::IcpWorkspace ws;
+  const bool sequence = isSequence(s);
+  runSequence(s, r, [&](std::size_t k, const Eigen::Matrix4d& guess) {
+    if (!sequence) ws.hints.clear();  // the same scan again: no warm start from the previous answer
+    const dw::IcpResult res =
+        dw::alignIcp(search, nullptr, s.scans[k].data(), s.scans[k].size() / 3, guess, icpOptions(o), ws);
+    return FrameFit{res.transform, res.iterations};
+  });
+}
 
-class NanoflannSearch final : public dw::CorrespondenceSearch {
- public:
-  NanoflannSearch(const std::vector<float>& xyz, unsigned threads)
-      : cloud_{&xyz},
-        tree_(3, cloud_,
-              nanoflann::KDTreeSingleIndexAdaptorParams(10, nanoflann::KDTreeSingleIndexAdaptorFlags::None,
-                                                        dw::resolveThreads(threads))) {}
-  std::size_t size() const override { return cloud_.kdtree_get_point_count(); }
-  const float* point(std::size_t i) const override { return &(*cloud_.xyz)[3 * i]; }
-  bool nearest(const float q[3], dw::index_t&, std::int32_t& index, float& dist2) const override {
-    if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !std::isfinite(q[2])) return false;
-    std::uint32_t i = 0;
-    float d = 0;
-    if (tree_.knnSearch(q, 1, &i, &d) != 1) return false;
-    index = std::int32_t(i);
-    dist2 = d;
-    return true;
-  }
-
- private:
-  FloatCloud cloud_;
-  NanoTree tree_;
-};
-#endif
+/// Our loop over an exact peer's search, built from `args` (its build timed).
+template <typename Search, typename... Args>
+RunResult runExactPeer(std::string method, const Scene& s, const Options& o, const Args&... args) {
+  RunResult r;
+  r.method = std::move(method);
+  const auto t0 = Clock::now();
+  const Search search(args...);
+  r.build_s = since(t0);
+  runLoop(search, s, o, r);
+  return r;
+}
 
 #ifdef DW_BENCH_PCL
 void runPcl(const Scene& s, const Options& o, const std::vector<Eigen::Matrix4d>& guesses, RunResult& r) {
@@ -289,78 +301,148 @@ void printDegrees(const dw::DelaunayGraph& g) {
               double(g.numDirectedEdges()) / double(degree.size()), at(0.5), at(0.99), degree.back());
 }
 
-void benchScene(const Scene& s, const Options& o) {
-  std::vector<RunResult> runs;
-  {
-    RunResult r;
-    r.method = "walk";
-    const auto t0 = Clock::now();
-    dw::BuildOptions b;
-    b.num_threads = o.threads;
-    auto g = std::make_shared<const dw::DelaunayGraph>(
-        dw::buildDelaunayGraph(dw::PointView::fromFloat(s.map.data(), s.map.size() / 3), b));
-    const dw::WalkCorrespondenceSearch search(
-        std::make_shared<const dw::CallerMetricSearch>(g, s.map, std::vector<std::int32_t>{}),
-        dw::StartStrategy::PnnOptimized, 4.0 * o.max_distance);  // as dw::Localizer sets it
-    r.build_s = since(t0);
-    printDegrees(*g);
-    if (!o.graph_file.empty()) {
-      try {  // a full disk costs this line, not the tables
-        timeGraphFile(*g, o.graph_file);
-      } catch (const std::exception& e) {
-        std::remove(o.graph_file.c_str());
-        std::printf("map graph file: not timed (%s)\n", e.what());
-      }
+/// The largest distance between a pose's translation and the true one (the KITTI pair has no truth).
+double maxTranslationError(const std::vector<Eigen::Matrix4d>& poses, const Scene& s) {
+  double worst = 0;
+  for (std::size_t k = 0; k < std::min(poses.size(), s.truth.size()); ++k)
+    worst = std::max(worst, (poses[k].topRightCorner<3, 1>() - s.truth[k].topRightCorner<3, 1>()).norm());
+  return worst;
+}
+
+/// The walk's run: the map graph's build (timed with the search's set-up), its statistics and, with
+/// --graph-file, its save and load.
+RunResult runWalk(const Scene& s, const Options& o) {
+  RunResult r;
+  r.method = "walk";
+  const auto t0 = Clock::now();
+  dw::BuildOptions b;
+  b.num_threads = o.threads;
+  auto g = std::make_shared<const dw::DelaunayGraph>(
+      dw::buildDelaunayGraph(dw::PointView::fromFloat(s.map.data(), s.map.size() / 3), b));
+  const dw::WalkCorrespondenceSearch search(
+      std::make_shared<const dw::CallerMetricSearch>(g, s.map, std::vector<std::int32_t>{}),
+      dw::StartStrategy::PnnOptimized, 4.0 * o.max_distance);  // as dw::Localizer sets it
+  r.build_s = since(t0);
+  printDegrees(*g);
+  if (!o.graph_file.empty()) {
+    try {  // a full disk costs this line, not the tables
+      timeGraphFile(*g, o.graph_file);
+    } catch (const std::exception& e) {
+      std::remove(o.graph_file.c_str());
+      std::printf("map graph file: not timed (%s)\n", e.what());
     }
-    runLoop(search, s, o, r);
-    runs.push_back(std::move(r));
   }
+  runLoop(search, s, o, r);
+  return r;
+}
+
+#ifdef DW_HAVE_SMALL_GICP_PEER
+/// small_gicp's own registration from its own constant-velocity guesses (its tree build timed).
+RunResult runSmallGicpIcp(const Scene& s, const Options& o) {
+  RunResult r;
+  r.method = std::string(dw_bench::kSmallGicpLabel) + " own ICP";
+  r.exact = false;
+  const auto t0 = Clock::now();
+  const dw_bench::SmallGicpIcp icp(s.map, icpOptions(o));
+  r.build_s = since(t0);
+  runSequence(s, r, [&](std::size_t k, const Eigen::Matrix4d& guess) {
+    const small_gicp::RegistrationResult res = icp.align(s.scans[k], guess);
+    return FrameFit{res.T_target_source.matrix(), int(res.iterations)};
+  });
+  return r;
+}
+#endif
+
+/// The peers in our loop, each present or skipped with a line, then small_gicp's own ICP.
+void runPeers([[maybe_unused]] const Scene& s, [[maybe_unused]] const Options& o,
+              [[maybe_unused]] std::vector<RunResult>& runs) {
 #ifdef DW_HAVE_NANOFLANN_PEER
-  {
-    RunResult r;
-    r.method = "nanoflann " NANOFLANN_VERSION_STRING;
-    const auto t0 = Clock::now();
-    const NanoflannSearch search(s.map, o.threads);
-    r.build_s = since(t0);
-    runLoop(search, s, o, r);
-    runs.push_back(std::move(r));
-  }
+  runs.push_back(
+      runExactPeer<dw_bench::NanoflannSearch>("nanoflann " NANOFLANN_VERSION_STRING, s, o, s.map, o.threads));
 #else
   std::printf("nanoflann 1.12.1 (../shared/peers/nanoflann) not found at build time: skipped\n");
 #endif
-#ifdef DW_BENCH_PCL
-  if (o.pcl) {
-    // PCL starts each frame where the walk's run did, so the frames are the same registrations.
-    std::vector<Eigen::Matrix4d> guesses;
-    const bool sequence = s.truth.size() > 1 && s.truth[1] != s.truth[0];
-    for (std::size_t k = 0; k < s.scans.size(); ++k) {
-      if (!sequence || k == 0)
-        guesses.push_back(s.truth[k]);
-      else if (k == 1)
-        guesses.push_back(runs[0].poses[0]);
-      else
-        guesses.push_back(runs[0].poses[k - 1] * (runs[0].poses[k - 2].inverse() * runs[0].poses[k - 1]));
-    }
-    RunResult r;
-    r.method = "PCL ICP + KdTree";
-    runPcl(s, o, guesses, r);
-    runs.push_back(std::move(r));
-  }
+#ifdef DW_HAVE_PICO_TREE_PEER
+  runs.push_back(runExactPeer<dw_bench::PicoTreeSearch>(dw_bench::kPicoTreeLabel, s, o, s.map));
+#else
+  std::printf("pico_tree 1.0.0+ (../shared/peers/pico_tree) not found at build time: skipped\n");
 #endif
+#ifdef DW_HAVE_SMALL_GICP_PEER
+  runs.push_back(runExactPeer<dw_bench::SmallGicpKdTreeSearch>(
+      std::string(dw_bench::kSmallGicpLabel) + " KdTree", s, o, s.map, o.threads));
+  runs.back().note =
+      "small_gicp's KdTree measures in double: where two map points tie in the float metric of the "
+      "others it may take the truly nearer one, and unconverged iterations (the KITTI pair's 30) carry "
+      "that difference on";
+  runs.push_back(runSmallGicpIcp(s, o));
+#else
+  std::printf("small_gicp 1.0.1+ (../shared/peers/small_gicp) not found at build time: skipped\n");
+#endif
+}
+
+#ifdef DW_BENCH_PCL
+/// PCL starts each frame where the walk's run did (`walk`), so the frames are the same registrations.
+std::vector<Eigen::Matrix4d> walkGuesses(const Scene& s, const std::vector<Eigen::Matrix4d>& walk) {
+  std::vector<Eigen::Matrix4d> guesses;
+  for (std::size_t k = 0; k < s.scans.size(); ++k) {
+    if (!isSequence(s) || k == 0)
+      guesses.push_back(s.truth[k]);
+    else if (k == 1)
+      guesses.push_back(walk[0]);
+    else
+      guesses.push_back(walk[k - 1] * (walk[k - 2].inverse() * walk[k - 1]));
+  }
+  return guesses;
+}
+#endif
+
+void printScene(const Scene& s, const Options& o, const std::vector<RunResult>& runs) {
   std::printf("\n%s, %u threads, max distance %.2f m\n", s.name.c_str(), dw::resolveThreads(o.threads),
               o.max_distance);
-  std::printf("%-22s %10s %10s %10s %10s %8s %10s %14s\n", "method", "build s", "p50 ms", "mean ms", "max ms",
-              "iters", "ratio p50", "max rel diff");
+#ifdef DW_HAVE_SMALL_GICP_PEER
+  if (dw_bench::smallGicpThreads(o.threads) != int(dw::resolveThreads(o.threads)))
+    std::printf("(built without OpenMP: small_gicp's tree build and ICP run on one thread)\n");
+#endif
+  std::printf("%-36s %9s %9s %9s %9s %7s %10s %13s %10s\n", "method", "build s", "p50 ms", "mean ms",
+              "max ms", "iters", "ratio p50", "max rel diff", "max err m");
   const double walk_p50 = percentile(runs[0].frame_ms, 0.5);
+  std::string mismatched, notes;
   for (const RunResult& r : runs) {
     double mean = 0;
     for (double m : r.frame_ms) mean += m;
     mean /= double(std::max<std::size_t>(1, r.frame_ms.size()));
-    std::printf("%-22s %10.3f %10.2f %10.2f %10.2f %8.2f %9.2fx %14.2e\n", r.method.c_str(), r.build_s,
+    const double diff = maxRelativeDifference(r.poses, runs[0].poses);
+    if (r.exact && !(diff <= 1e-6)) {
+      mismatched += " " + r.method + ";";
+      if (!r.note.empty()) notes += "  (" + r.note + ")\n";
+    }
+    char err[32] = "-";  // against the truth, which the KITTI pair lacks
+    if (isSequence(s)) std::snprintf(err, sizeof err, "%.2e", maxTranslationError(r.poses, s));
+    std::printf("%-36s %9.3f %9.2f %9.2f %9.2f %7.2f %9.2fx %13.2e %10s\n", r.method.c_str(), r.build_s,
                 percentile(r.frame_ms, 0.5), mean, *std::max_element(r.frame_ms.begin(), r.frame_ms.end()),
-                r.iterations, percentile(r.frame_ms, 0.5) / walk_p50,
-                maxRelativeDifference(r.poses, runs[0].poses));
+                r.iterations, percentile(r.frame_ms, 0.5) / walk_p50, diff, err);
   }
+  if (mismatched.empty())
+    std::printf("exact searches in our loop: poses within 1e-6 relative of the walk's\n");
+  else
+    std::printf("exact searches in our loop beyond 1e-6 relative of the walk's poses:%s\n%s",
+                mismatched.c_str(), notes.c_str());
+}
+
+void benchScene(const Scene& s, const Options& o) {
+  std::vector<RunResult> runs;
+  runs.push_back(runWalk(s, o));
+  runPeers(s, o, runs);
+#ifdef DW_BENCH_PCL
+  if (o.pcl) {
+    RunResult r;
+    r.method = "PCL ICP + KdTree";
+    r.exact = false;  // its own float rounding of the moved scan: 5e-6 on the unconverged KITTI pair
+    runPcl(s, o, walkGuesses(s, runs[0].poses), r);
+    runs.push_back(std::move(r));
+  }
+#endif
+  printScene(s, o, runs);
 }
 
 /// Map maintenance on the scene's scan stream at the true poses: each frame's points (downsampled to
@@ -440,10 +522,9 @@ void benchMapMaintenance(const Scene& s, double voxel, double range) {
   row("dw::DynamicDelaunayGraph", dw_in, dw_in_cpu, removed, dw_out, dw_out_cpu);
 #ifdef DW_HAVE_NANOFLANN_PEER
   {
-    FloatCloud cloud{&stream};  // the whole stream is there up front; the tree indexes what was added
-    nanoflann::KDTreeSingleIndexIncrementalAdaptor<nanoflann::L2_Simple_Adaptor<float, FloatCloud>,
-                                                   FloatCloud, 3, std::uint32_t>
-        tree(3, cloud);
+    dw_bench::FloatCloud cloud{
+        &stream};  // the whole stream is there up front; the tree indexes what was added
+    dw_bench::NanoIncrementalTree tree(3, cloud);
     double nin = 0, nout = 0, nin_cpu = 0, nout_cpu = 0;
     std::size_t next = 0, tree_removed = 0;
     // Its removal slows down as the tree grows (a few hundred points/s on a full-resolution stream,
@@ -475,142 +556,121 @@ void benchMapMaintenance(const Scene& s, double voxel, double range) {
 #endif
 }
 
-/// dw::SlidingWindowOdometry over the scene's scans (0.5 m voxels, range 60 m, one thread): per-frame
-/// latency and the drift against the true poses made relative to the first.
-/// compact_ratio 0: retired points leave the triangulation each frame; else they stay until they
+/// dw::SlidingWindowOdometry's ICP settings (OdometryOptions' defaults), on one thread: the peers'
+/// odometries use them too.
+dw::IcpOptions odometryIcp() {
+  dw::IcpOptions icp = dw::OdometryOptions().icp;
+  icp.num_threads = 1;
+  return icp;
+}
+
+/// One odometry's frames: wall and thread-CPU time of each registerScan and its pose (sensor -> first
+/// frame).
+struct OdometryRun {
+  std::string method;
+  std::vector<double> ms, cpu_ms;
+  std::vector<Eigen::Matrix4d> poses;
+};
+
+/// Drift against the true poses made relative to the first (the odometries start at identity, no
+/// alignment): the largest translation error and its RMSE over the frames (ATE).
+void printOdometryTable(const Scene& s, const std::vector<OdometryRun>& runs) {
+  std::printf("%-52s %9s %9s %9s %9s %10s %10s\n", "odometry (one thread)", "p50 ms", "p95 ms", "max ms",
+              "cpu p50", "max err m", "ATE m");
+  for (const OdometryRun& r : runs) {
+    double worst = 0, sum2 = 0;
+    for (std::size_t k = 0; k < r.poses.size(); ++k) {
+      const Eigen::Matrix4d rel = s.truth[0].inverse() * s.truth[k];
+      const double e = (r.poses[k].topRightCorner<3, 1>() - rel.topRightCorner<3, 1>()).norm();
+      worst = std::max(worst, e);
+      sum2 += e * e;
+    }
+    std::printf("%-52s %9.2f %9.2f %9.2f %9.2f %10.3f %10.3f\n", r.method.c_str(), percentile(r.ms, 0.5),
+                percentile(r.ms, 0.95), *std::max_element(r.ms.begin(), r.ms.end()),
+                percentile(r.cpu_ms, 0.5), worst,
+                std::sqrt(sum2 / double(std::max<std::size_t>(1, r.poses.size()))));
+  }
+}
+
+/// dw::SlidingWindowOdometry over the scene's scans (0.5 m voxels, range 60 m, one thread); its time
+/// is its own latency_seconds (downsampling included, as in the peers' rows). compact_ratio 0: the
+/// points that leave the window leave the triangulation each frame; else they stay until they
 /// outnumber that share of the live ones (dw::OdometryOptions::compact_ratio).
-void benchOdometry(const Scene& s, double compact_ratio) {
+OdometryRun runOdometry(const Scene& s, double compact_ratio) {
   dw::OdometryOptions o;
+  o.icp = odometryIcp();
   o.voxel = 0.5;
   o.max_range = 60.0;
   o.num_threads = 1;
   o.compact_ratio = compact_ratio;
   dw::SlidingWindowOdometry odo(o);
-  std::vector<double> ms;
-  double worst = 0;
+  OdometryRun run;
+  run.method = compact_ratio == 0 ? "walk (dw::SlidingWindowOdometry), delete every frame"
+                                  : "walk (dw::SlidingWindowOdometry)";
   std::size_t ok = 0;
-  std::vector<double> cpu_ms;
   for (std::size_t k = 0; k < s.scans.size(); ++k) {
     const double c0 = cpuNow();
     const dw::FrameResult r =
         odo.registerScan(dw::PointView::fromFloat(s.scans[k].data(), s.scans[k].size() / 3));
-    cpu_ms.push_back(1e3 * (cpuNow() - c0));
-    ms.push_back(1e3 * r.latency_seconds);
+    run.cpu_ms.push_back(1e3 * (cpuNow() - c0));
+    run.ms.push_back(1e3 * r.latency_seconds);
+    run.poses.push_back(r.pose);
     ok += r.status == dw::FrameStatus::Ok;
-    const Eigen::Matrix4d rel = s.truth[0].inverse() * s.truth[k];
-    worst = std::max(worst, (r.pose.topRightCorner<3, 1>() - rel.topRightCorner<3, 1>()).norm());
   }
   const dw::OdometryMapStats& st = odo.mapStats();
   std::printf(
       "\nsliding-window odometry, 0.5 m voxels, range 60 m, one thread, %zu frames (%zu ok), compact ratio %g"
-      " (%llu compactions)\n",
-      s.scans.size(), ok, compact_ratio, static_cast<unsigned long long>(st.compactions));
-  std::printf(
-      "per-frame ms p50 %.2f p95 %.2f max %.2f (thread cpu p50 %.2f); largest translation drift %.3f m;"
-      " map %zu points; walk graph %.1f ms/frame, insert %.3g points/s, remove %.3g points/s\n",
-      percentile(ms, 0.5), percentile(ms, 0.95), *std::max_element(ms.begin(), ms.end()),
-      percentile(cpu_ms, 0.5), worst, odo.mapSize(), 1e3 * st.graph_seconds / double(s.scans.size()),
+      " (%llu compactions): map %zu points; walk graph %.1f ms/frame, insert %.3g points/s, remove %.3g "
+      "points/s\n",
+      s.scans.size(), ok, compact_ratio, static_cast<unsigned long long>(st.compactions), odo.mapSize(),
+      1e3 * st.graph_seconds / double(s.scans.size()),
       st.insert_seconds > 0 ? double(st.inserted) / st.insert_seconds : 0.0,
       st.remove_seconds > 0 ? double(st.removed) / st.remove_seconds : 0.0);
+  return run;
 }
 
-#ifdef DW_HAVE_NANOFLANN_PEER
-/// The same odometry with nanoflann 1.12.1's incremental tree as the local map: the same ICP loop,
-/// 0.5 m voxel hash (one point per voxel), range bound and constant-velocity prediction as
-/// dw::SlidingWindowOdometry, so the two differ only in the nearest-neighbour structure.
-class NanoflannOdometry final : public dw::CorrespondenceSearch {
- public:
-  std::size_t size() const override { return points_.size() / 3; }
-  const float* point(std::size_t i) const override { return &points_[3 * i]; }
-  bool nearest(const float q[3], dw::index_t&, std::int32_t& index, float& dist2) const override {
-    std::uint32_t i = 0;
-    float d = 0;
-    if (live_count_ == 0 || tree_.knnSearch(q, 1, &i, &d) != 1) return false;
-    index = std::int32_t(i);
-    dist2 = d;
-    return true;
-  }
-
-  /// Registers a scan and updates the map; returns the pose (sensor -> first frame).
-  Eigen::Matrix4d registerScan(const std::vector<float>& scan) {
-    const std::vector<float> pts =
-        dw::voxelDownsample(dw::PointView::fromFloat(scan.data(), scan.size() / 3), 0.5);
-    const Eigen::Matrix4d guess = pose_ * velocity_;
-    Eigen::Matrix4d pose = pose_;
-    if (live_count_ > 0) {
-      dw::IcpOptions icp;
-      icp.max_correspondence_distance = 1.0;
-      icp.max_iterations = 30;
-      icp.transformation_epsilon = 1e-8;
-      icp.num_threads = 1;
-      pose = dw::alignIcp(*this, nullptr, pts.data(), pts.size() / 3, guess, icp, ws_).transform;
-    }
-    velocity_ = pose_.inverse() * pose;
-    pose_ = pose;
-    const Eigen::Vector3d c = pose.topRightCorner<3, 1>();
-    for (std::size_t i = 0; i < live_.size(); ++i) {
-      if (!live_[i]) continue;
-      const Eigen::Vector3d p(points_[3 * i], points_[3 * i + 1], points_[3 * i + 2]);
-      if ((p - c).squaredNorm() > 60.0 * 60.0) {
-        tree_.removePoint(std::uint32_t(i));
-        live_[i] = 0, --live_count_;
-        voxels_.erase(keys_[i]);
-      }
-    }
-    const std::size_t first = size();
-    for (std::size_t i = 0; i < pts.size() / 3; ++i) {
-      float p[3];
-      for (int r = 0; r < 3; ++r)
-        p[r] = float(pose(r, 0) * pts[3 * i] + pose(r, 1) * pts[3 * i + 1] + pose(r, 2) * pts[3 * i + 2] +
-                     pose(r, 3));
-      std::uint64_t key = 0;
-      for (int d = 0; d < 3; ++d)
-        key = (key << 21) | (std::uint64_t(std::int64_t(std::floor(double(p[d]) / 0.5))) & ((1u << 21) - 1));
-      if (!voxels_.emplace(key, size()).second) continue;
-      points_.insert(points_.end(), p, p + 3);
-      keys_.push_back(key);
-      live_.push_back(1);
-      ++live_count_;
-    }
-    if (size() > first) tree_.addPoints(std::uint32_t(first), std::uint32_t(size() - 1));
-    return pose;
-  }
-
- private:
-  std::vector<float> points_;
-  FloatCloud cloud_{&points_};
-  nanoflann::KDTreeSingleIndexIncrementalAdaptor<nanoflann::L2_Simple_Adaptor<float, FloatCloud>, FloatCloud,
-                                                 3, std::uint32_t>
-      tree_{3, cloud_};
-  std::unordered_map<std::uint64_t, std::size_t> voxels_;
-  std::vector<std::uint64_t> keys_;
-  std::vector<char> live_;
-  std::size_t live_count_ = 0;
-  dw::IcpWorkspace ws_;
-  Eigen::Matrix4d pose_ = Eigen::Matrix4d::Identity(), velocity_ = Eigen::Matrix4d::Identity();
-};
-
-void benchNanoflannOdometry(const Scene& s) {
-  NanoflannOdometry odo;
-  std::vector<double> ms;
-  double worst = 0;
-  std::vector<double> cpu_ms;
-  for (std::size_t k = 0; k < s.scans.size(); ++k) {
+/// A peer odometry (registerScan(scan) -> pose) over the scene's scans, timed by wall and thread CPU.
+template <typename Odometry>
+OdometryRun runPeerOdometry(std::string method, Odometry& odo, const Scene& s) {
+  OdometryRun run;
+  run.method = std::move(method);
+  for (const std::vector<float>& scan : s.scans) {
     const auto t0 = Clock::now();
     const double c0 = cpuNow();
-    const Eigen::Matrix4d pose = odo.registerScan(s.scans[k]);
-    cpu_ms.push_back(1e3 * (cpuNow() - c0));
-    ms.push_back(1e3 * since(t0));
-    const Eigen::Matrix4d rel = s.truth[0].inverse() * s.truth[k];
-    worst = std::max(worst, (pose.topRightCorner<3, 1>() - rel.topRightCorner<3, 1>()).norm());
+    run.poses.push_back(odo.registerScan(scan));
+    run.cpu_ms.push_back(1e3 * (cpuNow() - c0));
+    run.ms.push_back(1e3 * since(t0));
   }
-  std::printf("the same odometry over nanoflann " NANOFLANN_VERSION_STRING
-              "'s incremental tree: per-frame ms p50 %.2f p95 %.2f max %.2f (thread cpu p50 %.2f); largest"
-              " translation drift %.3f m\n",
-              percentile(ms, 0.5), percentile(ms, 0.95), *std::max_element(ms.begin(), ms.end()),
-              percentile(cpu_ms, 0.5), worst);
+  return run;
 }
+
+/// Our odometry, then the peers' on the same scans, as one table.
+void benchOdometries(const Scene& s) {
+  std::vector<OdometryRun> runs{runOdometry(s, 1.0), runOdometry(s, 0.0)};
+#ifdef DW_HAVE_NANOFLANN_PEER
+  {
+    dw_bench::NanoflannOdometry odo(odometryIcp());
+    runs.push_back(
+        runPeerOdometry("our loop, nanoflann " NANOFLANN_VERSION_STRING " incremental tree", odo, s));
+  }
+#else
+  std::printf("nanoflann 1.12.1 (../shared/peers/nanoflann) not found at build time: its odometry skipped\n");
 #endif
+#ifdef DW_HAVE_SMALL_GICP_PEER
+  const auto icp = dw_bench::SmallGicpSettings::from(odometryIcp());
+  for (int offsets : {27, 1}) {
+    dw_bench::SmallGicpOdometry odo(0.5, offsets, icp);
+    runs.push_back(runPeerOdometry(std::string(dw_bench::kSmallGicpLabel) + " ICP, voxel map, " +
+                                       std::to_string(offsets) + (offsets == 1 ? " voxel" : " voxels"),
+                                   odo, s));
+    if (offsets == 27) std::printf("small_gicp voxel map: %zu points at the end\n", odo.mapPoints());
+  }
+#else
+  std::printf(
+      "small_gicp 1.0.1+ (../shared/peers/small_gicp) not found at build time: its odometry skipped\n");
+#endif
+  printOdometryTable(s, runs);
+}
 
 Options parse(int argc, char** argv) {
   Options o;
@@ -672,11 +732,7 @@ int main(int argc, char** argv) {
         benchMapMaintenance(s, 0.5, 60.0);
         benchMapMaintenance(s, 0.0, 60.0);
       }
-      benchOdometry(s, 0.0);
-      benchOdometry(s, 1.0);
-#ifdef DW_HAVE_NANOFLANN_PEER
-      benchNanoflannOdometry(s);
-#endif
+      benchOdometries(s);
     }
     return 0;
   } catch (const std::exception& e) {

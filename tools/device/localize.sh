@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
 # Run ON THE DEVICE MACHINE (16 CPU cores, no PCL) from the repository root, with .deps carried
-# (tools/device/prepare.sh: Qhull, nanoflann 1.12.1 under .deps/peers, the KITTI frames): builds the
-# PCL-free core, its registration tests and dw_localize_bench, runs the tests, then the localization
-# benchmark on 16 threads: the KITTI pair, a generated 10M-point street map with 120k-point scans
-# (walk vs nanoflann 1.12.1 in the same ICP loop, per-frame times and ratios) and the sliding-window
-# map's insert/remove rates beside nanoflann's incremental tree (a second run, 1M map). About 5-7
-# minutes. Logs go to $OUT.
+# (tools/device/prepare.sh: Qhull, the peers nanoflann 1.12.1, pico_tree and small_gicp under
+# .deps/peers, the KITTI frames): builds the PCL-free core, its registration tests and
+# dw_localize_bench, runs the tests, then the localization benchmark on 16 threads: the KITTI pair, a
+# generated 10M-point street map with 120k-point scans (walk vs nanoflann 1.12.1, pico_tree and
+# small_gicp's KdTree in the same ICP loop, and small_gicp's own ICP with 16 OpenMP threads; per-frame
+# times and ratios) and the sliding-window map's insert/remove rates beside nanoflann's incremental
+# tree, and the odometries (ours, nanoflann's, small_gicp's voxel map; a second run, 1M map). About
+# 5-7 minutes before the pico_tree and small_gicp rows were added (not yet timed with them). Logs go
+# to $OUT.
 #   usage: tools/device/localize.sh [MAP_POINTS]     (default 10M)
 set -uo pipefail
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)

@@ -26,10 +26,7 @@ set(Qhull_FOUND TRUE)
 CFG
 
 cp /usr/include/nanoflann.hpp "$DEPS/nanoflann/"
-# nanoflann 1.12.1, the localization benchmark's peer (tools/device/localize.sh), and the KITTI frames.
-PEERS=${DW_PEERS_DIR:-$ROOT/../shared/peers}
-mkdir -p "$DEPS/peers/nanoflann/include"
-cp "$PEERS/nanoflann/include/nanoflann.hpp" "$DEPS/peers/nanoflann/include/"
+# The real clouds and the KITTI frames (tools/device/localize.sh reads the KITTI pair).
 
 for f in dragon_vrip.ply.gz dragon_vrip_res2.ply.gz dragon_vrip_res3.ply dragon_vrip_res4.ply bun000.ply bun045.ply; do
   cp "$DATA/models/$f" "$DEPS/data/models/"
@@ -39,7 +36,10 @@ for f in fastgicp_251370668.pcd fastgicp_251371071.pcd fastgicp_relative.txt kit
 done
 mkdir -p "$DEPS/data/airborne"
 cp "$DATA/airborne/autzen_trim.las" "$DEPS/data/airborne/"
-# The benchmark-only peers of tools/device/peers.sh (headers only, with their licences).
+# The benchmark-only peers of tools/device/peers.sh and localize.sh (headers only, with their
+# licences), laid out as bench/CMakeLists.txt looks for them under -DDW_PEERS_DIR=.deps/peers:
+# nanoflann/include/nanoflann.hpp, pico_tree/src/pico_tree/pico_tree/kd_tree.hpp and
+# small_gicp/include/small_gicp/....
 PEERS=${DW_PEERS_DIR:-$ROOT/../shared/peers}
 if [ -d "$PEERS" ]; then
   mkdir -p "$DEPS/peers/nanoflann" "$DEPS/peers/pico_tree/src" "$DEPS/peers/small_gicp"
