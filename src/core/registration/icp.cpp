@@ -125,7 +125,9 @@ class CorrespondencePass {
         const float* q = &ws_.moved[3 * i];
         std::int32_t idx = -1;
         float d2 = 0.f;
-        if (!map_.nearest(q, ws_.hints[i], idx, d2) || !(double(d2) <= max_d2_)) idx = -1;
+        index_t& start = ws_.hints[i];
+        if (i > begin) start = map_.closerStart(q, start, ws_.hints[i - 1]);
+        if (!map_.nearest(q, start, idx, d2) || !(double(d2) <= max_d2_)) idx = -1;
         ws_.match[i] = idx;
         ws_.dist2[i] = d2;
       }

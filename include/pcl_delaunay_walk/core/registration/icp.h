@@ -38,6 +38,11 @@ class CorrespondenceSearch {
   virtual bool nearest(const float q[3], index_t& hint, std::int32_t& index, float& dist2) const = 0;
   /// Optional: start loading what a query with this hint reads first.
   virtual void prefetch(index_t /*hint*/) const {}
+  /// Optional: of two warm starts for q (either may be kInvalidIndex), the one to start from. The
+  /// loop offers the point's own hint (its answer in the previous iteration, or frame) and the answer
+  /// of the query before it, which a scan in sensor order puts near q: at a frame's first iteration
+  /// the own hint is a different return of the previous scan, often metres away.
+  virtual index_t closerStart(const float* /*q*/, index_t own, index_t /*previous*/) const { return own; }
 };
 
 enum class IcpMetric { PointToPoint, PointToPlane };

@@ -51,6 +51,13 @@ class WalkCorrespondenceSearch final : public CorrespondenceSearch {
     return true;
   }
   void prefetch(index_t hint) const override { search_->prefetchStart(hint); }
+  index_t closerStart(const float* q, index_t own, index_t previous) const override {
+    const DelaunayGraph& g = search_->graph();
+    if (previous >= g.numVertices()) return own;
+    if (own >= g.numVertices()) return previous;
+    const Vec3f l = g.toLocal(q[0], q[1], q[2]);
+    return squaredDistance(l, g.points[previous]) < squaredDistance(l, g.points[own]) ? previous : own;
+  }
 
   void setMaxHintDistance(double d) {
     max_hint2_ = d < 1e18 ? static_cast<float>(d * d) : std::numeric_limits<float>::infinity();
