@@ -1,5 +1,6 @@
 // NeighbourSearch: batch nearest / kNN / radius queries over a DelaunayGraph. Each batch releases the
-// GIL and runs dw::parallelFor over contiguous blocks of queries; queries are read in place from any
+// GIL and runs dw::parallelFor over contiguous blocks of queries (on the module's kept threads,
+// batch_team.h); queries are read in place from any
 // float32/float64 (n, 3) layout and results written straight into the NumPy outputs.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -13,6 +14,7 @@
 #include <vector>
 
 #include "arrays.h"
+#include "batch_team.h"
 #include "bindings.h"
 #include "pcl_delaunay_walk/core/search/neighbour_search.h"
 #include "pcl_delaunay_walk/core/search/query_order.h"
@@ -158,12 +160,14 @@ py::tuple nearest(const dw::NeighbourSearch& s, py::handle queries, py::handle h
   if (!have_hints && isPackedFloat(q)) {
     {
       py::gil_scoped_release release;
+      const BatchTeam team(b.workers);
       nearestPackedWithoutHints(b, idx, d2, end);
     }
     return py::make_tuple(indices, dist2, ends);
   }
   {
     py::gil_scoped_release release;
+    const BatchTeam team(b.workers);
     const dw::DelaunayGraph& g = s.graph();
     // flatten: dw::walk is called from many instantiations in this module, so GCC keeps it out of line
     // here (a call, the result spilled to the stack, loads the inlined walk keeps in registers); the
@@ -205,6 +209,7 @@ py::tuple knn(const dw::NeighbourSearch& s, py::handle queries, py::ssize_t k, p
   };
   {
     py::gil_scoped_release release;
+    const BatchTeam team(b.workers);
     std::vector<std::vector<index_t>> found(b.workers);  // one result buffer per worker, reused
     std::vector<std::vector<float>> found_d2(b.workers);
     dispatch(
@@ -245,6 +250,7 @@ py::tuple radius(const dw::NeighbourSearch& s, py::handle queries, double r, std
   std::vector<RaggedPart> parts(b.workers);
   {
     py::gil_scoped_release release;
+    const BatchTeam team(b.workers);
     off[0] = 0;
     dispatch(
         b,

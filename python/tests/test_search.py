@@ -306,3 +306,27 @@ def test_cpp_reference_batch_gives_the_bindings_answers(rng):
     assert index_sum == int(s.nearest(q, strategy="kd-ann")[0].sum())
     with pytest.raises(ValueError):
         _native._cpp_nearest_seconds(s, q[:, :2], 1, 1)
+
+
+def test_batches_keep_threads_and_work_after_fork(rng):
+    """Batches run on threads the module keeps between calls; a forked child (multiprocessing's
+    default on Linux) has none of them and must still answer, on threads of its own."""
+    import os
+    import signal
+
+    p = rng.random((20000, 3))
+    q = rng.random((3000, 3))
+    s = dw.NeighbourSearch(dw.DelaunayGraph(p))
+    want = s.knn(q, 8, threads=1)[0]
+    np.testing.assert_array_equal(s.knn(q, 8, threads=2)[0], want)
+    np.testing.assert_array_equal(s.knn(q, 8, threads=2)[0], want)  # the kept threads again
+    pid = os.fork()
+    if pid == 0:  # the child: any failure, or a hang past the alarm, is a non-zero exit
+        signal.alarm(30)
+        try:
+            ok = np.array_equal(s.knn(q, 8, threads=2)[0], want)
+        except BaseException:
+            ok = False
+        os._exit(0 if ok else 1)
+    _, status = os.waitpid(pid, 0)
+    assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0
