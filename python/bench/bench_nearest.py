@@ -47,7 +47,7 @@ def main():
     ap.add_argument("--threads", type=int, default=0)
     ap.add_argument("--icp-iterations", type=int, default=10)
     ap.add_argument("--big-points", type=int, default=0,
-                    help="also time small kNN batches on a graph of this many points: first call vs later ones")
+                    help="also time small kNN and radius batches on a graph of this many points: first call vs later ones")
     ap.add_argument("--process-reference", action="store_true",
                     help="also time the C++ batch as a separate program (dw_py_reference)")
     a = ap.parse_args()

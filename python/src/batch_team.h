@@ -28,7 +28,7 @@ class BatchTeam {
     // A forked child has the team object but not its threads: it must neither use nor join them.
     if (s.team && s.pid != getpid()) static_cast<void>(s.team.release());
     if (!s.team || s.team->size() < workers) {
-      s.team.reset();
+      s.team.reset();  // the old threads end before the new ones start
       s.team = std::make_unique<dw::ThreadTeam>(workers);
       s.pid = getpid();
     }

@@ -1,7 +1,7 @@
 // NeighbourSearch: batch nearest / kNN / radius queries over a DelaunayGraph. Each batch releases the
-// GIL and runs dw::parallelFor over contiguous blocks of queries (on the module's kept threads,
-// batch_team.h); queries are read in place from any
-// float32/float64 (n, 3) layout and results written straight into the NumPy outputs.
+// GIL and runs dw::parallelFor over contiguous blocks of queries on the module's kept threads
+// (batch_team.h); queries are read in place from any float32/float64 (n, 3) layout and results
+// written straight into the NumPy outputs.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
